@@ -1,0 +1,127 @@
+"""Resistivity laws of the liquid and dielectric time constants (Eq. 20).
+
+A law maps the magnitude of the liquid field |E_l| (V/m) to rho_l (ohm m). Inside the
+compiled solver a law is an id and a parameter array (`law_id`, `params`): 0 constant,
+1 linear with floor (Eq. 21), 2 table (log rho linear in log |E|). Any other law is a
+subclass of `ResistivityLaw` that implements the NumPy method `rho(E_abs)`: it is
+tabulated on a fine log grid (`TABLE_POINTS` points over `TABLE_RANGE` V/m), so new
+physics never touches the solver (and the compiled code stays cached).
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .equations import rho_of
+
+TABLE_RANGE = (1e2, 1e10)
+TABLE_POINTS = 4001
+
+class PhysicsWarning(UserWarning):
+    """The model ran outside its comfort zone but returned a valid result."""
+
+
+class ResistivityLaw:
+    """Base class. Subclasses either set `law_id` and `params` (built-in kernels) or
+    implement `rho(E_abs)` in NumPy and inherit the tabulated kernel."""
+
+    law_id = 2
+    is_constant = False
+
+    @property
+    def params(self) -> np.ndarray:
+        """Table of log rho on a uniform log-|E| grid: [n, log E_0, d log E, log rho...]."""
+        if getattr(self, "_table", None) is None:
+            lo, hi = np.log(TABLE_RANGE[0]), np.log(TABLE_RANGE[1])
+            lE = np.linspace(lo, hi, TABLE_POINTS)
+            r = np.asarray(self.rho(np.exp(lE)), float)
+            if r.shape != lE.shape or not np.all(np.isfinite(r)) or np.any(r <= 0):
+                raise ValueError(f"{type(self).__name__}.rho: must return finite positive resistivities "
+                                 f"for |E| in {TABLE_RANGE} V/m")
+            self._table = np.concatenate([[TABLE_POINTS, lo, lE[1] - lE[0]], np.log(r)])
+        return self._table
+
+    def rho(self, E):
+        """rho_l (ohm m) at field magnitudes E (V/m), as the solver sees it."""
+        E = np.abs(np.asarray(E, float))
+        params = self.params
+        return np.vectorize(lambda e: rho_of(self.law_id, params, e))(E)
+
+    def clipped(self, E_abs_max: float) -> bool:
+        """Whether the law was clipped at its floor for some |E| <= E_abs_max."""
+        return False
+
+
+class ConstantResistivity(ResistivityLaw):
+    law_id = 0
+    is_constant = True
+
+    def __init__(self, rho_l: float):
+        self.rho_l = float(rho_l)
+
+    @property
+    def params(self):
+        return np.array([self.rho_l])
+
+    def __repr__(self):
+        return f"ConstantResistivity(rho_l={self.rho_l:g})"
+
+
+class LinearResistivity(ResistivityLaw):
+    """Eq. (21): rho_l = m_rho |E_l| + q_rho, clipped below at rho_min.
+
+    With m_rho < 0 (the paper's fit, -3.34e5 m^2/A) the law goes negative above
+    |E_l| = q_rho/|m_rho| (about 6e7 V/m): the floor keeps it physical."""
+
+    law_id = 1
+
+    def __init__(self, m_rho: float = -3.34e5, q_rho: float = 20e12, rho_min: float = 1e11):
+        self.m_rho, self.q_rho, self.rho_min = float(m_rho), float(q_rho), float(rho_min)
+
+    @property
+    def params(self):
+        return np.array([self.m_rho, self.q_rho, self.rho_min])
+
+    @property
+    def E_clip(self) -> float:
+        """|E_l| above which the floor is active (inf if never)."""
+        if self.m_rho >= 0:
+            return np.inf
+        return (self.rho_min - self.q_rho) / self.m_rho
+
+    def clipped(self, E_abs_max):
+        return E_abs_max > self.E_clip
+
+    def __repr__(self):
+        return f"LinearResistivity(m_rho={self.m_rho:g}, q_rho={self.q_rho:g}, rho_min={self.rho_min:g})"
+
+
+def from_parameters(p) -> ResistivityLaw:
+    if p.law == "constant":
+        return ConstantResistivity(p.rho_l)
+    return LinearResistivity(p.m_rho, p.q_rho, p.rho_min)
+
+
+def warn_if_clipped(law: ResistivityLaw, E_abs_max: float) -> bool:
+    if law.clipped(E_abs_max):
+        warnings.warn(f"resistivity law clipped: |E_l| reached {E_abs_max:.3g} V/m, above {law.E_clip:.3g} V/m "
+                      f"where {law!r} falls to its floor rho_min; results use rho_l = rho_min there",
+                      PhysicsWarning, stacklevel=3)
+        return True
+    return False
+
+
+def stack_time_constant(p, t_l):
+    """Eq. (20): time constant of a film-liquid-film stack with liquid thickness t_l (s)."""
+    t_l = np.asarray(t_l, float)
+    num = 2 * p.tau_l * p.rho_f * p.t_f + p.tau_f * p.rho_l * t_l
+    return num / (2 * p.rho_f * p.t_f + p.rho_l * t_l)
+
+
+def blocked_end_state(p, V, t_l):
+    """Closed-form DC steady state of a blocked stack (liquid gap t_l): the current is
+    continuous and equal in both layers, J = V/(rho_l t_l + 2 rho_f t_f), so
+    sigma_l = tau_l J and sigma_f = tau_f J. Returns (sigma_l, sigma_f)."""
+    J = V / (p.rho_l * t_l + 2 * p.rho_f * p.t_f)
+    return p.tau_l * J, p.tau_f * J

@@ -1,0 +1,106 @@
+"""The assembled model: one object holding the packed physics for the compiled kernels.
+
+The same `DFAModel` serves simulation, statics, the CLI, sweeps, the FMU and the
+surrogate fitting. Physics pieces are objects passed in (kinematics from the layout,
+a resistivity law, a load); none of them touches the integrator.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import dielectrics, kinematics
+from .equations import (B, C_CONST, C_LAYOUT, C_M, C_NB, C_NBORD, C_SCHEME, DS, EPS_F, EPS_L, K, MASS,
+                        NMAT, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F, TAU_L, U0, W, XSC, diagnostics, rhs)
+from .parameters import Parameters
+
+
+class DFAModel:
+    """Continuum DFA model of one actuator (see README, 'Numerics')."""
+
+    def __init__(self, params: Parameters, law: dielectrics.ResistivityLaw | None = None):
+        self.params = p = params
+        self.kin = kinematics.make(p)
+        self.law = law if law is not None else dielectrics.from_parameters(p)
+        self.M = p.N - 1
+        self.ds = p.l_e / self.M
+        self.nb = 1 if p.scheme == "continuum" else 2
+        self.nbord = 1 if p.m == 0 else 2
+        self.cfg = np.array([self.kin.layout_id, 0 if p.scheme == "continuum" else 1,
+                             1 if self.law.is_constant else 0, self.nb, self.nbord, self.M], dtype=np.int64)
+        mat = np.zeros(NMAT)
+        mat[EPS_L], mat[EPS_F], mat[T_F], mat[T_LZ] = p.eps_l, p.eps_f, p.t_f, p.t_lz
+        mat[T0] = 2.0 * p.eps_l * p.t_f / p.eps_f
+        mat[U0] = p.t_lz + mat[T0]
+        mat[TAU_L] = p.tau_l if self.law.is_constant else np.nan
+        mat[TAU_F] = p.tau_f
+        mat[RHO_TS] = p.rho_t_s
+        mat[B], mat[MASS], mat[K] = p.b, p.m, p.k
+        mat[DS], mat[W] = self.ds, p.w
+        mat[XSC] = self.kin.x_e
+        mat[QSC] = p.eps_l * 1000.0 / mat[U0]
+        self.mat = mat
+        self.geo = self.kin.geo
+        self.n = self.nbord + self.M * self.nb
+
+    # ------------------------------------------------------------------ state
+    def initial_state(self, x0: float = 0.0) -> np.ndarray:
+        """Uncharged actuator at rest at stroke x0."""
+        y = np.zeros(self.n)
+        y[0] = x0
+        return y
+
+    def element_edges(self) -> np.ndarray:
+        return np.linspace(0.0, self.params.l_e, self.M + 1)
+
+    def with_k(self, k_extra: float) -> np.ndarray:
+        """mat with an extra linear stiffness (a load spring) added to k."""
+        mat = self.mat.copy()
+        mat[K] += k_extra
+        return mat
+
+    def scales(self, V_amp: float) -> np.ndarray:
+        """Per-component scales used by the error norm (stroke, velocity, charge)."""
+        sc = np.empty(self.n)
+        sc[0] = self.mat[XSC]
+        if self.nbord == 2:
+            sc[1] = self.mat[XSC] * 100.0
+        sc[self.nbord:] = self.params.eps_l * max(abs(V_amp), 100.0) / self.mat[U0]
+        return sc
+
+    # ------------------------------------------------------------------ python-level evaluation
+    def rhs(self, y, V, F, mat=None):
+        """dy/dt at voltage V and load F (NumPy arrays in and out)."""
+        ydot = np.empty(self.n)
+        rhs(self.cfg, self.geo, self.mat if mat is None else mat, self.law.law_id, self.law.params,
+            float(V), float(F), np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(8))
+        return ydot
+
+    def electrostatic_force(self, y, V) -> float:
+        """Zipping force -F_e (N, positive pulls towards zipping) at state y."""
+        ydot = np.empty(self.n)
+        Fe = rhs(self.cfg, self.geo, self.mat, self.law.law_id, self.law.params, float(V), 0.0,
+                 np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(8))
+        return -Fe
+
+    def diagnostics(self, y, V, F=0.0, dVdt=0.0, mat=None):
+        """Derived quantities and powers at state y: (record row, powers)."""
+        mat = self.mat if mat is None else mat
+        y = np.ascontiguousarray(y, dtype=float)
+        ydot = self.rhs(y, V, F, mat)
+        row = np.zeros(NREC)
+        P = np.zeros(6)
+        diagnostics(self.cfg, self.geo, mat, self.law.law_id, self.law.params, float(V), float(dVdt), float(F),
+                    y, ydot, np.zeros(6), np.zeros(8), row, P)
+        return row, P
+
+    def charges(self, y, V):
+        """(s_mid, sigma_l at the element's front-most point or midpoint, q or sigma_f) per element."""
+        s = self.element_edges()
+        mid = 0.5 * (s[:-1] + s[1:])
+        e = np.asarray(y)[self.nbord:].reshape(self.M, self.nb)
+        if self.nb == 1:
+            q = e[:, 0]
+            u = self.params.t_lz + self.mat[T0] + (self.kin.t_l(mid, y[0]) - self.params.t_lz)
+            sigma_l = (self.params.eps_l * V - self.mat[T0] * q) / u
+            return mid, sigma_l, sigma_l + q
+        return mid, e[:, 0], e[:, 1]

@@ -1,0 +1,336 @@
+"""Typed parameter sets: presets, TOML load/save and validation.
+
+The TOML layout is a public contract (see README): tables `geometry`, `materials`,
+`mechanics`, `discretization` and the optional `resistivity`; keys named after the
+paper's symbols, SI units. Every key is validated against the range in `SPEC`, and
+errors name the key and its allowed range.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+EPS0 = 8.8541878128e-12  # vacuum permittivity, F/m
+
+LAYOUTS = ("v-shaped", "peano-hasel")
+SCHEMES = ("continuum", "paper")
+LAWS = ("constant", "linear")
+PRESETS = {"vshape-table1": "vshape-table1.toml", "peano-fig10": "peano-fig10.toml"}
+
+
+class ParameterError(ValueError):
+    """An invalid parameter: the message names the key and its valid range."""
+
+
+@dataclass(frozen=True)
+class Spec:
+    table: str
+    unit: str
+    description: str
+    lo: float | None = None        # exclusive lower bound unless lo_incl
+    hi: float | None = None
+    lo_incl: bool = False
+    kind: type = float
+    choices: tuple = ()
+
+    def range_text(self) -> str:
+        if self.choices:
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        lo = "" if self.lo is None else f"{self.lo:g} {'<=' if self.lo_incl else '<'} "
+        hi = "" if self.hi is None else f" <= {self.hi:g}"
+        kind = "an integer" if self.kind is int else "a number"
+        return f"{kind} with {lo}value{hi}" + (f" ({self.unit})" if self.unit else "")
+
+
+# Every key of the parameter file, in file order. Bounds are physical plausibility,
+# wide enough for any real device; geometric consistency is checked separately.
+SPEC: dict[str, Spec] = {
+    "l": Spec("geometry", "m", "polymer side length", 0.0, 10.0),
+    "a": Spec("geometry", "m", "semi-aperture (v-shaped)", 0.0, 10.0),
+    "volume": Spec("geometry", "m^3", "liquid volume per unit pouch (peano-hasel)", 0.0, 1.0),
+    "w": Spec("geometry", "m", "electrode width", 0.0, 10.0),
+    "l_e": Spec("geometry", "m", "electrode length", 0.0, 10.0),
+    "t_f": Spec("materials", "m", "polymer film thickness", 0.0, 1e-2),
+    "t_lz": Spec("materials", "m", "residual liquid thickness, zipped", 0.0, 1e-2),
+    "eps_r_f": Spec("materials", "", "relative permittivity of the polymer", 1.0, 1e4, True),
+    "eps_r_l": Spec("materials", "", "relative permittivity of the liquid", 1.0, 1e4, True),
+    "rho_f": Spec("materials", "ohm m", "polymer resistivity", 0.0, 1e25),
+    "rho_l": Spec("materials", "ohm m", "liquid resistivity (constant law; q_rho for linear)", 0.0, 1e25),
+    "b": Spec("mechanics", "N s/m", "viscous damping", 0.0, 1e9),
+    "m": Spec("mechanics", "kg", "generalized mass", 0.0, 1e6, True),
+    "k": Spec("mechanics", "N/m", "stiffness, dU_m/dx = k x", 0.0, 1e9, True),
+    "N": Spec("discretization", "", "material points (N - 1 elements)", 3, 100000, True, int),
+    "scheme": Spec("discretization", "", "numerical scheme", kind=str, choices=SCHEMES),
+    "rho_t_s": Spec("discretization", "ohm m^2", "fictitious series resistance of Eq. (15) (paper scheme)", 0.0, 1e12),
+    "rtol": Spec("discretization", "", "relative tolerance of the time integrator", 1e-12, 1e-1, True),
+    "law": Spec("resistivity", "", "liquid resistivity law", kind=str, choices=LAWS),
+    "m_rho": Spec("resistivity", "m^2/A", "slope of the linear law, Eq. (21)", -1e12, 1e12),
+    "q_rho": Spec("resistivity", "ohm m", "intercept of the linear law, Eq. (21)", 0.0, 1e25),
+    "rho_min": Spec("resistivity", "ohm m", "floor at which the linear law is clipped", 0.0, 1e25),
+}
+TABLES = ("geometry", "materials", "mechanics", "discretization", "resistivity")
+
+
+@dataclass(frozen=True)
+class Parameters:
+    """One actuator and its numerical settings. SI units throughout."""
+
+    layout: str = "v-shaped"
+    l: float = 0.055
+    a: float | None = 0.0119
+    volume: float | None = None
+    w: float = 0.060
+    l_e: float = 0.040
+    t_f: float = 25e-6
+    t_lz: float = 10e-6
+    eps_r_f: float = 2.05
+    eps_r_l: float = 3.8
+    rho_f: float = 1e15
+    rho_l: float = 2e12
+    b: float = 10.0
+    m: float = 0.0
+    k: float = 0.0
+    N: int = 161
+    scheme: str = "continuum"
+    rho_t_s: float = 100.0
+    rtol: float = 1e-4
+    law: str = "constant"
+    m_rho: float = -3.34e5
+    q_rho: float = 20e12
+    rho_min: float = 1e11
+
+    def __post_init__(self):
+        validate(self)
+
+    # derived quantities -------------------------------------------------
+    @property
+    def eps_f(self) -> float:
+        return EPS0 * self.eps_r_f
+
+    @property
+    def eps_l(self) -> float:
+        return EPS0 * self.eps_r_l
+
+    @property
+    def tau_f(self) -> float:
+        """Dielectric time constant of the polymer, rho_f eps_f (s)."""
+        return self.rho_f * self.eps_f
+
+    @property
+    def tau_l(self) -> float:
+        """Dielectric time constant of the liquid, rho_l eps_l (s)."""
+        return self.rho_l * self.eps_l
+
+    @property
+    def theta0(self) -> float:
+        """Initial zipping angle (rad): Eq. (18) at l_z = 0 (v-shaped) or the pouch's
+        half curvature angle from Eq. (22) (peano-hasel)."""
+        if self.layout == "v-shaped":
+            return 2.0 * math.asin(self.a / self.l)
+        from .kinematics import PeanoHasel
+        return PeanoHasel(self).theta0
+
+    def replace(self, **changes) -> "Parameters":
+        """A copy with some keys changed (validated)."""
+        return dataclasses.replace(self, **changes)
+
+    def with_theta0(self, theta0_deg: float, clip_electrode: bool = True) -> "Parameters":
+        """V-shaped copy with the semi-aperture set for an initial angle theta_0 (deg).
+
+        With `clip_electrode`, l_e is shortened to fit l_e <= l - a if needed (large
+        angles): the front never gets near there, so the dynamics are unaffected."""
+        if self.layout != "v-shaped":
+            raise ParameterError("with_theta0: only for layout 'v-shaped'")
+        a = self.l * math.sin(math.radians(theta0_deg) / 2.0)
+        l_e = min(self.l_e, 0.999 * (self.l - a)) if clip_electrode else self.l_e
+        return self.replace(a=a, l_e=l_e)
+
+    # I/O ----------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """Nested dict in the parameter-file layout (only keys that apply)."""
+        out: dict = {"layout": self.layout}
+        for key, spec in SPEC.items():
+            if not _applies(self, key):
+                continue
+            out.setdefault(spec.table, {})[key] = getattr(self, key)
+        return out
+
+    def to_toml(self) -> str:
+        lines = [f'layout = "{self.layout}"']
+        for table, keys in self.to_dict().items():
+            if table == "layout":
+                continue
+            lines += ["", f"[{table}]"]
+            for key, value in keys.items():
+                spec = SPEC[key]
+                text = f'"{value}"' if isinstance(value, str) else _fmt(value)
+                comment = spec.description + (f", {spec.unit}" if spec.unit else "")
+                lines.append(f"{key + ' = ' + text:<28} # {comment}")
+        return "\n".join(lines) + "\n"
+
+    def save(self, path) -> None:
+        Path(path).write_text(self.to_toml())
+
+
+def _fmt(v) -> str:
+    if isinstance(v, int):
+        return str(v)
+    return repr(float(v)) if abs(v) >= 1e-3 and abs(v) < 1e6 else f"{v:.6g}"
+
+
+def _applies(p: Parameters, key: str) -> bool:
+    if key == "a":
+        return p.layout == "v-shaped"
+    if key == "volume":
+        return p.layout == "peano-hasel"
+    if key == "rho_t_s":
+        return p.scheme == "paper"
+    if key in ("m_rho", "q_rho", "rho_min"):
+        return p.law == "linear"
+    return True
+
+
+def validate(p: Parameters) -> None:
+    """Raise ParameterError naming the first bad key and its valid range."""
+    if p.layout not in LAYOUTS:
+        raise ParameterError(f"layout: got {p.layout!r}, expected one of {', '.join(map(repr, LAYOUTS))}")
+    for key, spec in SPEC.items():
+        value = getattr(p, key)
+        if value is None:
+            if _applies(p, key):
+                raise ParameterError(f"{key}: missing; {spec.table}.{key} is required for layout {p.layout!r}: {spec.range_text()}")
+            continue
+        _check_value(key, value, spec)
+    if p.layout == "v-shaped":
+        if p.a >= p.l:
+            raise ParameterError(f"a: semi-aperture {p.a:g} m must be smaller than l = {p.l:g} m")
+        if p.l_e > p.l - p.a:
+            raise ParameterError(f"l_e: electrode length {p.l_e:g} m must be <= l - a = {p.l - p.a:g} m")
+    else:
+        from .kinematics import peano_lz_max
+        lz_max = peano_lz_max(p.l, p.volume / p.w)
+        if lz_max <= 0:
+            raise ParameterError(f"volume: {p.volume:g} m^3 does not fit a pouch of l = {p.l:g} m, w = {p.w:g} m; "
+                                 f"need volume < w l^2 / pi = {p.w * p.l ** 2 / math.pi:.4g} m^3")
+        if p.l_e >= lz_max:
+            raise ParameterError(f"l_e: electrode length {p.l_e:g} m must be < {lz_max:.4g} m, the zipped length "
+                                 f"at which the pouch becomes circular (l - sqrt(pi volume / w))")
+
+
+def _check_value(key: str, value, spec: Spec) -> None:
+    if spec.choices:
+        if value not in spec.choices:
+            raise ParameterError(f"{key}: got {value!r}, expected {spec.range_text()}")
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ParameterError(f"{key}: got {value!r}, expected {spec.range_text()}")
+    if spec.kind is int and int(value) != value:
+        raise ParameterError(f"{key}: got {value!r}, expected {spec.range_text()}")
+    if not math.isfinite(value):
+        raise ParameterError(f"{key}: got {value!r}, expected {spec.range_text()}")
+    bad_lo = spec.lo is not None and (value < spec.lo or (value == spec.lo and not spec.lo_incl))
+    bad_hi = spec.hi is not None and value > spec.hi
+    if bad_lo or bad_hi:
+        raise ParameterError(f"{key}: got {value:g}, expected {spec.range_text()}")
+
+
+def coerce(key: str, text: str):
+    """Parse a `--set KEY=VALUE` value for `key` (a bare key or table.key)."""
+    key = key.split(".")[-1]
+    if key == "layout":
+        return key, text
+    if key not in SPEC:
+        raise ParameterError(f"{key}: unknown key; valid keys are layout, {', '.join(SPEC)}")
+    spec = SPEC[key]
+    if spec.kind is str:
+        return key, text.strip().strip('"')
+    try:
+        value = float(text)
+    except ValueError:
+        raise ParameterError(f"{key}: got {text!r}, expected {spec.range_text()}") from None
+    if spec.kind is int:
+        if value != int(value):
+            raise ParameterError(f"{key}: got {text!r}, expected {spec.range_text()}")
+        value = int(value)
+    return key, value
+
+
+def from_dict(data: dict, source: str = "parameters") -> Parameters:
+    """Build Parameters from the nested parameter-file layout; unknown or missing keys
+    are errors that name the key."""
+    data = dict(data)
+    layout = data.pop("layout", None)
+    if layout is None:
+        raise ParameterError(f"layout: missing in {source}; expected one of {', '.join(map(repr, LAYOUTS))}")
+    if layout not in LAYOUTS:
+        raise ParameterError(f"layout: got {layout!r}, expected one of {', '.join(map(repr, LAYOUTS))}")
+    flat: dict = {"layout": layout}
+    for table, content in data.items():
+        if table not in TABLES:
+            raise ParameterError(f"{table}: unknown table or key in {source}; valid tables are {', '.join(TABLES)}")
+        if not isinstance(content, dict):
+            raise ParameterError(f"{table}: expected a table [{table}] in {source}")
+        for key, value in content.items():
+            if key not in SPEC or SPEC[key].table != table:
+                valid = [k for k, s in SPEC.items() if s.table == table]
+                raise ParameterError(f"{table}.{key}: unknown key in {source}; valid keys in [{table}] are {', '.join(valid)}")
+            flat[key] = value
+    required = ["l", "w", "l_e", "t_f", "t_lz", "eps_r_f", "eps_r_l", "rho_f", "rho_l", "b", "N",
+                "a" if layout == "v-shaped" else "volume"]
+    for key in required:
+        if key not in flat:
+            raise ParameterError(f"{SPEC[key].table}.{key}: missing in {source}; expected {SPEC[key].range_text()}")
+    if layout == "v-shaped":
+        flat.setdefault("volume", None)
+    else:
+        flat.setdefault("a", None)
+    for key, value in flat.items():
+        if key in SPEC and value is not None:
+            spec = SPEC[key]
+            if spec.kind is not str:
+                _check_value(key, value, spec)
+    return Parameters(**flat)
+
+
+def load(path) -> Parameters:
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ParameterError(f"params: cannot read {path}: {exc.strerror}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError(f"params: {path} is not valid TOML: {exc}") from None
+    return from_dict(data, source=str(path))
+
+
+def preset(name: str) -> Parameters:
+    if name not in PRESETS:
+        raise ParameterError(f"preset: unknown preset {name!r}; available: {', '.join(PRESETS)}")
+    text = resources.files(__package__).joinpath("presets", PRESETS[name]).read_text()
+    return from_dict(tomllib.loads(text), source=f"preset {name}")
+
+
+def preset_text(name: str) -> str:
+    """The preset file as shipped (with comments)."""
+    preset(name)  # validates the name
+    return resources.files(__package__).joinpath("presets", PRESETS[name]).read_text()
+
+
+def apply_sets(p: Parameters, assignments) -> Parameters:
+    """Apply `KEY=VALUE` strings (CLI --set)."""
+    changes = {}
+    for item in assignments or ():
+        if "=" not in item:
+            raise ParameterError(f"--set: expected KEY=VALUE, got {item!r}")
+        key, text = item.split("=", 1)
+        key, value = coerce(key.strip(), text.strip())
+        changes[key] = value
+    if "layout" in changes and changes["layout"] != p.layout:
+        raise ParameterError("layout: cannot be changed with --set; use a parameter file")
+    return p.replace(**changes) if changes else p

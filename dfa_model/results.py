@@ -1,0 +1,148 @@
+"""The result of a simulation: arrays, metrics, energy balance, CSV export, plots."""
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+
+from . import metrics
+from .equations import (R_ANG, R_C, R_EDAMP, R_EIN, R_EINTRA, R_EJ, R_ELOAD, R_EMAX, R_ESRC, R_F, R_FE, R_I,
+                        R_LZ, R_Q, R_T, R_U, R_V, R_VOLT, R_X)
+
+CSV_COLUMNS = ["time", "voltage", "force", "stroke", "current", "velocity", "zipped_length",
+               "zipping_angle", "electrostatic_force", "capacitance", "stored_energy"]
+
+
+class Result:
+    """Time series (SI units) and metrics of one run.
+
+    Arrays: t, x (stroke), v, lz, theta (zipping angle, rad), Fe (zipping force, N),
+    I (device current, A), C (capacitance at fixed interface charge, F), U (stored
+    electrostatic energy, J), V, F, E_max (largest |E_l|, V/m). `states` holds the
+    element states at each output when requested (`charges=True`)."""
+
+    def __init__(self, model, protocol, load, rec, states, stats, wall_time, y_end, energy=False):
+        self.model = model
+        self.params = model.params
+        self.protocol = protocol
+        self.load = load
+        self.rec = rec
+        self.states = states
+        self.y_end = y_end
+        self.wall_time = wall_time
+        self.n_steps, self.n_rejected, self.n_rhs, self.n_jac = (int(v) for v in stats[:4])
+        self.has_energy = energy
+        self.t, self.x, self.v = rec[:, R_T], rec[:, R_X], rec[:, R_V]
+        self.lz, self.theta, self.Fe = rec[:, R_LZ], rec[:, R_ANG], rec[:, R_FE]
+        self.I, self.C, self.U = rec[:, R_I], rec[:, R_C], rec[:, R_U]
+        self.V, self.F, self.E_max, self.Q = rec[:, R_VOLT], rec[:, R_F], rec[:, R_EMAX], rec[:, R_Q]
+
+    # ---------------------------------------------------------------- windows
+    def stage(self, label):
+        return self.protocol.stage_span(label)
+
+    @property
+    def has_reset(self):
+        return self.stage("reset") is not None
+
+    def hold_window(self):
+        """(t0, t1) of the unzipping window (see metrics.unzipping_speed)."""
+        span = self.stage("hold")
+        if self.has_reset and span is not None:
+            return span
+        t0 = span[0] if span is not None else 0.0
+        inside = self.t >= t0
+        tpk = float(self.t[inside][np.argmax(self.x[inside])])
+        return tpk, float(self.t[-1])
+
+    # ---------------------------------------------------------------- metrics
+    @property
+    def unzipping_speed(self) -> float:
+        t0, t1 = self.hold_window()
+        return metrics.unzipping_speed(self.t, self.x, t0, t1)
+
+    @property
+    def static_stroke(self) -> float:
+        """Mean stroke over the reset stage (the paper's experimental definition), or
+        over the first 0.5 s when there is no reset."""
+        span = self.stage("reset")
+        t0, t1 = span if span is not None else (0.0, min(0.5, float(self.t[-1])))
+        return metrics.time_mean(self.t, self.x, t0, t1)
+
+    @property
+    def final_stroke(self) -> float:
+        return float(self.x[-1])
+
+    def ripple(self, period, label="hold", last=5):
+        t0, t1 = self.stage(label) or (0.0, float(self.t[-1]))
+        return metrics.ripple(self.t, self.x, period, t0, t1, last)
+
+    def drift(self, period, label="hold", skip=1):
+        t0, t1 = self.stage(label) or (0.0, float(self.t[-1]))
+        return metrics.drift(self.t, self.x, period, t0, t1, skip)
+
+    def summary(self) -> dict:
+        return {"static_stroke": self.static_stroke, "final_stroke": self.final_stroke,
+                "unzipping_speed": self.unzipping_speed, "wall_time": self.wall_time,
+                "steps": self.n_steps, "rejected_steps": self.n_rejected}
+
+    # ---------------------------------------------------------------- energy
+    def energy_balance(self) -> dict:
+        """Cumulative energy terms over the run (J) and the relative residual of
+        E_in = dU_e + dKE + Joule + intra-element + source + damping + load work.
+        'intra' is the redistribution loss of the continuum scheme's uniform-q elements
+        (>= 0, vanishing as N grows); 'source' the loss of ideal voltage steps (or of the
+        fictitious series resistor in the paper scheme)."""
+        if not self.has_energy:
+            raise ValueError("energy_balance: run simulate(..., energy=True)")
+        r0, r1 = self.rec[0], self.rec[-1]
+        m = self.params.m
+        dKE = 0.5 * m * (r1[R_V] ** 2 - r0[R_V] ** 2)
+        terms = {"E_in": r1[R_EIN], "dU": r1[R_U] - r0[R_U], "dKE": dKE, "joule": r1[R_EJ],
+                 "intra": r1[R_EINTRA], "source": r1[R_ESRC], "damping": r1[R_EDAMP], "load": r1[R_ELOAD]}
+        out = terms["dU"] + dKE + terms["joule"] + terms["intra"] + terms["source"] + terms["damping"] + terms["load"]
+        terms["residual"] = (terms["E_in"] - out) / max(abs(terms["E_in"]), 1e-300)
+        return terms
+
+    # ---------------------------------------------------------------- export
+    def columns(self) -> dict:
+        return {"time": self.t, "voltage": self.V, "force": self.F, "stroke": self.x, "current": self.I,
+                "velocity": self.v, "zipped_length": self.lz, "zipping_angle": self.theta,
+                "electrostatic_force": self.Fe, "capacitance": self.C, "stored_energy": self.U}
+
+    def to_csv(self, path=None, comment=None) -> str | None:
+        """Write the recording-format CSV (time,voltage,force,stroke,current, then the
+        other outputs). Returns the text if path is None."""
+        buf = io.StringIO()
+        buf.write("# dfa_model simulation, SI units (s, V, N, m, A, m/s, m, rad, N, F, J)\n")
+        if comment:
+            for line in str(comment).splitlines():
+                buf.write(f"# {line}\n")
+        cols = self.columns()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(CSV_COLUMNS)
+        data = np.column_stack([cols[c] for c in CSV_COLUMNS])
+        for row in data:
+            w.writerow([f"{v:.10g}" for v in row])
+        text = buf.getvalue()
+        if path is None:
+            return text
+        Path(path).write_text(text)
+        return None
+
+    def to_json(self) -> str:
+        return json.dumps(self.summary())
+
+    def plot(self, path=None, title=None):
+        """Stroke, voltage and electrostatic force against time."""
+        from .plotting import plot_result
+        return plot_result(self, path, title)
+
+    def charge_profile(self, index=-1):
+        """(s, sigma_l, sigma_f) along the electrode at output `index` (needs charges=True)."""
+        if self.states is None:
+            raise ValueError("charge_profile: run simulate(..., charges=True)")
+        return self.model.charges(self.states[index], self.V[index])

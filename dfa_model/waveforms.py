@@ -1,0 +1,330 @@
+"""Voltage waveforms, loads and protocols, as piecewise-linear signals.
+
+Every signal becomes a list of segments on which it is linear in time; segment
+boundaries are events for the integrator (it lands on them exactly), so square-wave
+switches are resolved without stepping across them. A user callable is sampled on a
+grid of `dt` and interpolated linearly (documented accuracy: that of the sampling).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+class WaveformError(ValueError):
+    """Invalid waveform or protocol input (message names the field)."""
+
+
+def _finite(name, value, lo=None, lo_incl=True, hi=None):
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise WaveformError(f"{name}: got {value!r}, expected a number") from None
+    if not math.isfinite(value):
+        raise WaveformError(f"{name}: got {value!r}, expected a finite number")
+    if lo is not None and (value < lo or (value == lo and not lo_incl)):
+        rng = f"{'>=' if lo_incl else '>'} {lo:g}" + (f" and <= {hi:g}" if hi is not None else "")
+        raise WaveformError(f"{name}: got {value:g}, expected a value {rng}")
+    if hi is not None and value > hi:
+        raise WaveformError(f"{name}: got {value:g}, expected a value <= {hi:g}")
+    return value
+
+
+@dataclass
+class Piecewise:
+    """Linear on each [t[i], t[i+1]]: value v0[i] + slope[i] (t - t[i])."""
+
+    t: np.ndarray
+    v0: np.ndarray
+    slope: np.ndarray
+
+    def __call__(self, tq):
+        tq = np.asarray(tq, float)
+        i = np.clip(np.searchsorted(self.t, tq, side="right") - 1, 0, len(self.v0) - 1)
+        return self.v0[i] + self.slope[i] * (tq - self.t[i])
+
+    def at_right(self, tq):
+        return self(tq)
+
+    def shifted(self, dt):
+        return Piecewise(self.t + dt, self.v0, self.slope)
+
+    @staticmethod
+    def concat(parts):
+        t = [parts[0].t[:-1]]
+        v0 = [parts[0].v0]
+        sl = [parts[0].slope]
+        for p in parts[1:]:
+            t.append(p.t[:-1])
+            v0.append(p.v0)
+            sl.append(p.slope)
+        t.append(parts[-1].t[-1:])
+        return Piecewise(np.concatenate(t), np.concatenate(v0), np.concatenate(sl))
+
+
+def merge(a: Piecewise, b: Piecewise):
+    """Common breakpoints of two piecewise signals on the same span."""
+    t = np.union1d(a.t, b.t)
+    t = t[(t >= a.t[0]) & (t <= a.t[-1])]
+    # drop breakpoints closer than 1e-13 s (float noise of periodic grids)
+    keep = np.concatenate([[True], np.diff(t) > 1e-13])
+    keep[-1] = True
+    t = t[keep]
+    if len(t) > 2 and t[-1] - t[-2] <= 1e-13:
+        t = np.delete(t, -2)
+    mid = 0.5 * (t[:-1] + t[1:])
+    out = []
+    for sig in (a, b):
+        i = np.clip(np.searchsorted(sig.t, mid, side="right") - 1, 0, len(sig.v0) - 1)
+        v0 = sig.v0[i] + sig.slope[i] * (t[:-1] - sig.t[i])
+        out.append((v0, sig.slope[i]))
+    return t, out[0][0], out[0][1], out[1][0], out[1][1]
+
+
+class Waveform:
+    """A voltage signal starting at local time 0."""
+
+    def piecewise(self, duration: float) -> Piecewise:
+        raise NotImplementedError
+
+    def __call__(self, t):
+        t = np.asarray(t, float)
+        return self.piecewise(float(np.max(t)) + 1e-9 if t.size else 1.0)(t)
+
+    @property
+    def amplitude(self) -> float:
+        return abs(getattr(self, "V", 0.0))
+
+
+@dataclass
+class DC(Waveform):
+    V: float
+
+    def __post_init__(self):
+        self.V = _finite("voltage", self.V)
+
+    def piecewise(self, duration):
+        return Piecewise(np.array([0.0, duration]), np.array([self.V]), np.zeros(1))
+
+
+def _square(duration, period, levels):
+    """Repeat (fraction, level) pieces each period, truncated at duration."""
+    edges, vals = [0.0], []
+    n_per = int(math.ceil(duration / period - 1e-12))
+    for k in range(max(n_per, 1)):
+        acc = 0.0
+        for frac, lev in levels:
+            if frac <= 0:
+                continue
+            acc += frac
+            # breakpoints from k*period + cumulative fraction, computed without drift
+            edges.append(k * period + acc * period)
+            vals.append(lev)
+    t = np.array(edges)
+    v = np.array(vals)
+    keep = t[1:] < duration - 1e-12
+    n = int(np.sum(keep)) + 1
+    t = np.concatenate([t[:n], [duration]])
+    return Piecewise(t, v[:n], np.zeros(n))
+
+
+@dataclass
+class Bipolar(Waveform):
+    """Polarity inversion: +V, -V square wave of `frequency` (full periods per second).
+    `duty` is the fraction of each half period at full voltage (1.0: the paper's
+    100 % duty cycle, no dead time); the rest of each half period is at 0 V."""
+
+    V: float
+    frequency: float
+    duty: float = 1.0
+
+    def __post_init__(self):
+        self.V = _finite("voltage", self.V)
+        self.frequency = _finite("frequency", self.frequency, 0.0, lo_incl=False, hi=1e6)
+        self.duty = _finite("duty", self.duty, 0.0, lo_incl=False, hi=1.0)
+
+    def piecewise(self, duration):
+        d = self.duty
+        return _square(duration, 1.0 / self.frequency,
+                       [(d / 2, self.V), ((1 - d) / 2, 0.0), (d / 2, -self.V), ((1 - d) / 2, 0.0)])
+
+
+@dataclass
+class Unipolar(Waveform):
+    """Unipolar pulse train: V for duty of each period, then 0 V."""
+
+    V: float
+    frequency: float
+    duty: float = 0.5
+
+    def __post_init__(self):
+        self.V = _finite("voltage", self.V)
+        self.frequency = _finite("frequency", self.frequency, 0.0, lo_incl=False, hi=1e6)
+        self.duty = _finite("duty", self.duty, 0.0, lo_incl=False, hi=1.0)
+
+    def piecewise(self, duration):
+        return _square(duration, 1.0 / self.frequency, [(self.duty, self.V), (1 - self.duty, 0.0)])
+
+
+@dataclass
+class Sampled(Waveform):
+    """A sampled signal: linear interpolation between samples (`hold=False`) or
+    zero-order hold (`hold=True`). Held constant after the last sample."""
+
+    times: np.ndarray
+    values: np.ndarray
+    hold: bool = False
+    name: str = "voltage"
+
+    def __post_init__(self):
+        self.times = np.asarray(self.times, float).ravel()
+        self.values = np.asarray(self.values, float).ravel()
+        if self.times.size == 0 or self.times.size != self.values.size:
+            raise WaveformError(f"{self.name}: times and values must be non-empty and of equal length "
+                                f"(got {self.times.size} and {self.values.size})")
+        if not (np.all(np.isfinite(self.times)) and np.all(np.isfinite(self.values))):
+            raise WaveformError(f"{self.name}: samples must be finite numbers (found NaN or inf)")
+        if np.any(np.diff(self.times) < 0):
+            raise WaveformError(f"{self.name}: sample times must be non-decreasing")
+        if self.times[0] > 0:
+            raise WaveformError(f"{self.name}: first sample time must be <= 0 s (got {self.times[0]:g})")
+
+    @property
+    def amplitude(self):
+        return float(np.max(np.abs(self.values)))
+
+    def piecewise(self, duration):
+        t, v = self.times, self.values
+        # strictly increasing breakpoints; a repeated time is a jump (the later sample wins)
+        tb = [0.0]
+        v0 = []
+        sl = []
+        for i in range(len(t)):
+            t_next = t[i + 1] if i + 1 < len(t) else np.inf
+            if t_next <= 0 or t_next == t[i]:
+                continue
+            a = max(t[i], 0.0)
+            b = min(t_next, duration)
+            if b <= a:
+                if a >= duration:
+                    break
+                continue
+            if self.hold or not np.isfinite(t_next):
+                s, va = 0.0, v[i]
+            else:
+                s = (v[i + 1] - v[i]) / (t_next - t[i])
+                va = v[i] + s * (a - t[i])
+            if tb[-1] != a:
+                tb.append(a)
+            v0.append(va)
+            sl.append(s)
+            tb.append(b)
+            if b >= duration:
+                break
+        tb = np.array(tb)
+        # consecutive duplicates produced by the loop
+        _, idx = np.unique(tb, return_index=True)
+        tb = tb[np.sort(idx)]
+        return Piecewise(tb, np.array(v0), np.array(sl))
+
+
+def from_function(fn, duration, dt=1e-3, name="voltage") -> Sampled:
+    """Sample a user callable V(t) every dt on [0, duration] (linear in between)."""
+    dt = _finite(f"{name} dt", dt, 0.0, lo_incl=False)
+    n = int(math.ceil(duration / dt)) + 1
+    t = np.linspace(0.0, duration, n)
+    try:
+        v = np.array([float(fn(ti)) for ti in t])
+    except Exception as exc:  # the user's code failed: say where
+        raise WaveformError(f"{name}: the callable raised {type(exc).__name__}: {exc}") from None
+    return Sampled(t, v, name=name)
+
+
+@dataclass
+class Stage:
+    waveform: Waveform
+    duration: float
+    label: str = ""
+
+
+@dataclass
+class Protocol:
+    """Stages applied one after the other, time 0 at the start of the first."""
+
+    stages: list = field(default_factory=list)
+
+    def __post_init__(self):
+        if not self.stages:
+            raise WaveformError("protocol: needs at least one stage")
+        for s in self.stages:
+            s.duration = _finite(f"duration of stage {s.label or '?'}", s.duration, 0.0, lo_incl=False, hi=1e7)
+
+    @property
+    def duration(self):
+        return sum(s.duration for s in self.stages)
+
+    @property
+    def boundaries(self):
+        return np.concatenate([[0.0], np.cumsum([s.duration for s in self.stages])])
+
+    def stage_span(self, label):
+        b = self.boundaries
+        for i, s in enumerate(self.stages):
+            if s.label == label:
+                return b[i], b[i + 1]
+        return None
+
+    @property
+    def amplitude(self):
+        return max(s.waveform.amplitude for s in self.stages)
+
+    def piecewise(self) -> Piecewise:
+        b = self.boundaries
+        return Piecewise.concat([s.waveform.piecewise(s.duration).shifted(b[i]) for i, s in enumerate(self.stages)])
+
+    def voltage(self, t):
+        return self.piecewise()(t)
+
+    # constructors --------------------------------------------------------------
+    @classmethod
+    def dc(cls, V, duration):
+        return cls([Stage(DC(V), duration, "hold")])
+
+    @classmethod
+    def reset_then_hold(cls, V, hold, reset=3.0, reset_frequency=30.0, hold_waveform=None):
+        """The paper's routine (Sec. 4.2): a bipolar 100 % duty square wave at the test
+        amplitude for `reset` s, then `hold_waveform` (default DC at V) for `hold` s."""
+        return cls([Stage(Bipolar(V, reset_frequency, 1.0), reset, "reset"),
+                    Stage(hold_waveform or DC(V), hold, "hold")])
+
+    @classmethod
+    def single(cls, waveform, duration, label="hold"):
+        return cls([Stage(waveform, duration, label)])
+
+
+@dataclass
+class Load:
+    """External force opposing zipping: F(t) (constant, sampled or callable) plus a
+    linear spring k_load x."""
+
+    F: object = 0.0
+    k_load: float = 0.0
+    dt: float = 1e-3
+
+    def __post_init__(self):
+        self.k_load = _finite("k_load", self.k_load, 0.0)
+        if not (callable(self.F) or isinstance(self.F, Sampled)):
+            self.F = _finite("force", self.F)
+
+    def piecewise(self, duration) -> Piecewise:
+        if isinstance(self.F, Sampled):
+            return self.F.piecewise(duration)
+        if callable(self.F):
+            return from_function(self.F, duration, self.dt, name="force").piecewise(duration)
+        return DC(self.F).piecewise(duration)
+
+    @property
+    def F0(self) -> float:
+        return float(self.piecewise(1.0).v0[0])
