@@ -60,7 +60,7 @@ SPEC: dict[str, Spec] = {
     "eps_r_l": Spec("materials", "", "relative permittivity of the liquid", 1.0, 1e4, True),
     "rho_f": Spec("materials", "ohm m", "polymer resistivity", 0.0, 1e25),
     "rho_l": Spec("materials", "ohm m", "liquid resistivity (constant law; q_rho for linear)", 0.0, 1e25),
-    "b": Spec("mechanics", "N s/m", "viscous damping", 0.0, 1e9),
+    "b": Spec("mechanics", "N s/m", "viscous damping (huge values hold the stroke: blocked tests)", 0.0, 1e15),
     "m": Spec("mechanics", "kg", "generalized mass", 0.0, 1e6, True),
     "k": Spec("mechanics", "N/m", "stiffness, dU_m/dx = k x", 0.0, 1e9, True),
     "N": Spec("discretization", "", "material points (N - 1 elements)", 3, 100000, True, int),

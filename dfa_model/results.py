@@ -24,7 +24,8 @@ class Result:
     electrostatic energy, J), V, F, E_max (largest |E_l|, V/m). `states` holds the
     element states at each output when requested (`charges=True`)."""
 
-    def __init__(self, model, protocol, load, rec, states, stats, wall_time, y_end, energy=False):
+    def __init__(self, model, protocol, load, rec, states, stats, wall_time, y_end, energy=False,
+                 y0=None, V_before=0.0):
         self.model = model
         self.params = model.params
         self.protocol = protocol
@@ -32,6 +33,7 @@ class Result:
         self.rec = rec
         self.states = states
         self.y_end = y_end
+        self.y0, self.V_before = y0, V_before
         self.wall_time = wall_time
         self.n_steps, self.n_rejected, self.n_rhs, self.n_jac = (int(v) for v in stats[:4])
         self.has_energy = energy
@@ -101,7 +103,9 @@ class Result:
         r0, r1 = self.rec[0], self.rec[-1]
         m = self.params.m
         dKE = 0.5 * m * (r1[R_V] ** 2 - r0[R_V] ** 2)
-        terms = {"E_in": r1[R_EIN], "dU": r1[R_U] - r0[R_U], "dKE": dKE, "joule": r1[R_EJ],
+        # from the state just before t = 0: a voltage jump there is booked in E_in and source
+        U0 = self.model.diagnostics(self.y0, self.V_before)[0][R_U]
+        terms = {"E_in": r1[R_EIN], "dU": r1[R_U] - U0, "dKE": dKE, "joule": r1[R_EJ],
                  "intra": r1[R_EINTRA], "source": r1[R_ESRC], "damping": r1[R_EDAMP], "load": r1[R_ELOAD]}
         out = terms["dU"] + dKE + terms["joule"] + terms["intra"] + terms["source"] + terms["damping"] + terms["load"]
         terms["residual"] = (terms["E_in"] - out) / max(abs(terms["E_in"]), 1e-300)

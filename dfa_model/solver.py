@@ -82,7 +82,8 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
                                           t, V0, Vs, F0, Fs, float(V_before), rtol, scale, h0, t_out,
                                           bool(energy), bool(charges), int(max_steps))
     wall = time.perf_counter() - wall
-    result = Result(model, protocol, load, rec, states if charges else None, stats, wall, y_end, energy=energy)
+    result = Result(model, protocol, load, rec, states if charges else None, stats, wall, y_end, energy=energy,
+                    y0=y, V_before=float(V_before))
     status = int(stats[4])
     if status != OK:
         raise SolverError(f"simulate: stopped at t = {stats[5]:.6g} s of {T:g} s because {_STATUS[status]}; "

@@ -1,0 +1,73 @@
+import pytest
+
+from dfa_model import ParameterError, Parameters, load, preset
+from dfa_model.parameters import apply_sets, from_dict
+
+
+def test_presets_load_and_round_trip(tmp_path):
+    for name in ("vshape-table1", "peano-fig10"):
+        p = preset(name)
+        path = tmp_path / f"{name}.toml"
+        p.save(path)
+        assert load(path) == p
+
+
+def test_table1_values(vshape):
+    assert vshape.a == 0.0119 and vshape.l == 0.055 and vshape.rho_l == 2e12
+    assert abs(vshape.theta0 - 0.4363) < 1e-3        # 25 degrees
+
+
+@pytest.mark.parametrize("change,key", [
+    (dict(a=0.06), "a"),
+    (dict(l_e=0.05), "l_e"),
+    (dict(t_f=-1e-6), "t_f"),
+    (dict(N=1), "N"),
+    (dict(N=2.5), "N"),
+    (dict(rho_l=float("nan")), "rho_l"),
+    (dict(scheme="euler"), "scheme"),
+])
+def test_invalid_values_name_the_key(vshape, change, key):
+    with pytest.raises(ParameterError) as e:
+        vshape.replace(**change)
+    assert str(e.value).startswith(f"{key}:")
+    assert "expected" in str(e.value) or "must" in str(e.value)
+
+
+def test_unknown_and_missing_keys():
+    d = preset("vshape-table1").to_dict()
+    d["geometry"]["apex"] = 1.0
+    with pytest.raises(ParameterError, match=r"geometry\.apex: unknown key"):
+        from_dict(d)
+    d = preset("vshape-table1").to_dict()
+    del d["materials"]["rho_l"]
+    with pytest.raises(ParameterError, match=r"materials\.rho_l: missing"):
+        from_dict(d)
+    with pytest.raises(ParameterError, match="layout"):
+        from_dict({"geometry": {}})
+
+
+def test_peano_volume_too_large(peano):
+    with pytest.raises(ParameterError, match="volume"):
+        peano.replace(volume=1e-3)
+
+
+def test_set_assignments(vshape):
+    p = apply_sets(vshape, ["rho_l=2.5e12", "N=100", "a=0.0119"])
+    assert p.rho_l == 2.5e12 and p.N == 100 and isinstance(p.N, int)
+    with pytest.raises(ParameterError, match="N:"):
+        apply_sets(vshape, ["N=abc"])
+    with pytest.raises(ParameterError, match="--set"):
+        apply_sets(vshape, ["N"])
+
+
+def test_bad_toml_file(tmp_path):
+    f = tmp_path / "bad.toml"
+    f.write_text("layout = \n")
+    with pytest.raises(ParameterError, match="not valid TOML"):
+        load(f)
+    with pytest.raises(ParameterError, match="cannot read"):
+        load(tmp_path / "missing.toml")
+
+
+def test_default_parameters_are_table1():
+    assert Parameters() == preset("vshape-table1")
