@@ -20,8 +20,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .equations import (C_M, C_NB, C_NBORD, C_SCHEME, NPOW, NREC, R_EIN, R_T, R_X, R_C,
-                        diagnostics, factor, jacobian, rhs, solve)
+from .equations import C_M, C_NB, C_NBORD, C_SCHEME, NPOW, NREC, R_C, R_EIN, R_T, R_X
+from .kernels import NODAL, diagnostics, factor, jacobian, solve
+from .kernels import rhs as rhs_any
 
 GAMMA = 2.0 - math.sqrt(2.0)
 DG = GAMMA / 2.0
@@ -99,12 +100,17 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     fbase = np.empty(n)
     kin = np.zeros(6)
     work = np.zeros(8)
-    Jee = np.zeros((M, nb, nb))
-    Jeb = np.zeros((M, nb))
-    Jbe = np.zeros((M, nb))
+    ne = M + 1          # rows: elements (block schemes) or nodes (nodal scheme)
+    Jee = np.zeros((ne, nb, nb))
+    Jeb = np.zeros((ne, nb))
+    Jbe = np.zeros((ne, nb))
     Jbb = np.zeros((2, 2))
-    Winv = np.zeros((M, nb, nb))
-    zeta = np.zeros((M, nb))
+    Winv = np.zeros((ne, nb, nb))
+    zeta = np.zeros((ne, nb))
+    tri = np.zeros((ne, 3))
+    jbe = np.zeros(ne)
+    cp = np.zeros(ne)
+    dinv = np.zeros(ne)
     S = np.zeros((2, 2))
     E = np.zeros(NPOW)
     Eold = np.zeros(NPOW)
@@ -136,14 +142,14 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         else:
             Vleft = seg_V0[sidx - 1] + seg_Vs[sidx - 1] * (ta - seg_t[sidx - 1])
         # a voltage jump moves charge instantly (continuum scheme): book its energy
-        if cfg[C_SCHEME] == 0 and V0 != Vleft:
-            rhs(cfg, geo, mat, law, lawp, Vleft, F0, y, f0, kin, work)
+        if cfg[C_SCHEME] != 1 and V0 != Vleft:
+            rhs_any(cfg, geo, mat, law, lawp, Vleft, F0, y, f0, kin, work, tri, jbe)
             diagnostics(cfg, geo, mat, law, lawp, Vleft, 0.0, F0, y, f0, kin, work, row, P0)
             C = row[R_C]
             dV = V0 - Vleft
             E[0] += V0 * C * dV
             E[3] += 0.5 * C * dV * dV
-        rhs(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work)
+        rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
         nfev += 1
         if sidx == 0:
             if (not grid) or (kout < t_out.shape[0] and t_out[kout] <= t):
@@ -166,12 +172,12 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 status = MAX_STEPS
                 break
             jacobian(cfg, geo, mat, law, lawp, V0 + Vs * (t - ta), F0 + Fs * (t - ta), y, fbase,
-                     Jee, Jeb, Jbe, Jbb, kin, work, tmp, ytmp)
+                     Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp)
             fb = nbord - 1
             njac += 1
             nfev += 3
             gh = DG * h
-            factor(cfg, gh, Jee, Jeb, Jbe, Jbb, fb, Winv, zeta, S)
+            factor(cfg, gh, Jee, Jeb, Jbe, Jbb, tri, fb, Winv, zeta, cp, dinv, S)
             ok = True
             # ---- stage 1 (trapezoidal rule to t + gamma h)
             tg = t + GAMMA * h
@@ -182,11 +188,11 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             nprev = 0.0
             conv = False
             for it in range(MAXIT):
-                rhs(cfg, geo, mat, law, lawp, Vg, Fg, z1, fz, kin, work)
+                rhs_any(cfg, geo, mat, law, lawp, Vg, Fg, z1, fz, kin, work, tri, jbe)
                 nfev += 1
                 for i in range(n):
                     res[i] = -(z1[i] - y[i] - gh * f0[i] - gh * fz[i])
-                solve(cfg, gh, Winv, zeta, Jbe, S, fb, res, dz)
+                solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, dz)
                 for i in range(n):
                     z1[i] += dz[i]
                 nrm = _wnorm(dz, y, z1, scale, rtol, nbord)
@@ -217,11 +223,11 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 conv = False
                 nprev = 0.0
                 for it in range(MAXIT):
-                    rhs(cfg, geo, mat, law, lawp, V2, F2, z2, fz, kin, work)
+                    rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, fz, kin, work, tri, jbe)
                     nfev += 1
                     for i in range(n):
                         res[i] = -(z2[i] - y[i] - h * WTR * (f0[i] + f1[i]) - gh * fz[i])
-                    solve(cfg, gh, Winv, zeta, Jbe, S, fb, res, dz)
+                    solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, dz)
                     for i in range(n):
                         z2[i] += dz[i]
                     nrm = _wnorm(dz, y, z2, scale, rtol, nbord)
@@ -247,11 +253,11 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 continue
             # a fresh f(z2), not the stage relation: it seeds the next step's Jacobian
             # differences, where a Newton-sized error would be amplified by 1/dx
-            rhs(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work)
+            rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
             nfev += 1
             for i in range(n):
                 res[i] = h * (E0 * f0[i] + E1 * f1[i] + E2 * f2[i])
-            solve(cfg, gh, Winv, zeta, Jbe, S, fb, res, err)
+            solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, err)
             en = _wnorm(err, y, z2, scale, rtol, nbord)
             if not math.isfinite(en):
                 nrej += 1
@@ -272,7 +278,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 z2[0] = 0.0
                 if nbord == 2 and z2[1] < 0.0:
                     z2[1] = 0.0
-                rhs(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work)
+                rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
                 nfev += 1
             if want_energy:
                 Eold[:] = E

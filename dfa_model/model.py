@@ -9,8 +9,11 @@ from __future__ import annotations
 import numpy as np
 
 from . import dielectrics, kinematics
-from .equations import (B, C_CONST, C_LAYOUT, C_M, C_NB, C_NBORD, C_SCHEME, DS, EPS_F, EPS_L, K, MASS,
-                        NMAT, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F, TAU_L, U0, W, XSC, diagnostics, rhs)
+from .equations import (B, DS, EPS_F, EPS_L, K, MASS, NMAT, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F, TAU_L, U0,
+                        W, XSC)
+from .kernels import NODAL, P0_SCHEME, PAPER, diagnostics, rhs
+
+SCHEME_IDS = {"continuum": NODAL, "continuum-p0": P0_SCHEME, "paper": PAPER}
 from .parameters import Parameters
 
 
@@ -23,9 +26,12 @@ class DFAModel:
         self.law = law if law is not None else dielectrics.from_parameters(p)
         self.M = p.N - 1
         self.ds = p.l_e / self.M
-        self.nb = 1 if p.scheme == "continuum" else 2
+        self.scheme_id = SCHEME_IDS[p.scheme]
+        self.nb = 2 if p.scheme == "paper" else 1
         self.nbord = 1 if p.m == 0 else 2
-        self.cfg = np.array([self.kin.layout_id, 0 if p.scheme == "continuum" else 1,
+        # element states: per element (block schemes) or per material point (nodal)
+        self.n_states = p.N if self.scheme_id == NODAL else self.M * self.nb
+        self.cfg = np.array([self.kin.layout_id, self.scheme_id,
                              1 if self.law.is_constant else 0, self.nb, self.nbord, self.M], dtype=np.int64)
         mat = np.zeros(NMAT)
         mat[EPS_L], mat[EPS_F], mat[T_F], mat[T_LZ] = p.eps_l, p.eps_f, p.t_f, p.t_lz
@@ -40,7 +46,7 @@ class DFAModel:
         mat[QSC] = p.eps_l * 1000.0 / mat[U0]
         self.mat = mat
         self.geo = self.kin.geo
-        self.n = self.nbord + self.M * self.nb
+        self.n = self.nbord + self.n_states
 
     # ------------------------------------------------------------------ state
     def initial_state(self, x0: float = 0.0) -> np.ndarray:
@@ -72,14 +78,16 @@ class DFAModel:
         """dy/dt at voltage V and load F (NumPy arrays in and out)."""
         ydot = np.empty(self.n)
         rhs(self.cfg, self.geo, self.mat if mat is None else mat, self.law.law_id, self.law.params,
-            float(V), float(F), np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(8))
+            float(V), float(F), np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(8),
+            np.zeros((self.M + 1, 3)), np.zeros(self.M + 1))
         return ydot
 
     def electrostatic_force(self, y, V) -> float:
         """Zipping force -F_e (N, positive pulls towards zipping) at state y."""
         ydot = np.empty(self.n)
         Fe = rhs(self.cfg, self.geo, self.mat, self.law.law_id, self.law.params, float(V), 0.0,
-                 np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(8))
+                 np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(8),
+                 np.zeros((self.M + 1, 3)), np.zeros(self.M + 1))
         return -Fe
 
     def diagnostics(self, y, V, F=0.0, dVdt=0.0, mat=None):
@@ -94,13 +102,18 @@ class DFAModel:
         return row, P
 
     def charges(self, y, V):
-        """(s_mid, sigma_l at the element's front-most point or midpoint, q or sigma_f) per element."""
+        """(s, sigma_l, sigma_f) along the electrode: at the material points (nodal
+        scheme) or element midpoints (block schemes)."""
+        y = np.asarray(y)
         s = self.element_edges()
-        mid = 0.5 * (s[:-1] + s[1:])
-        e = np.asarray(y)[self.nbord:].reshape(self.M, self.nb)
-        if self.nb == 1:
-            q = e[:, 0]
-            u = self.params.t_lz + self.mat[T0] + (self.kin.t_l(mid, y[0]) - self.params.t_lz)
-            sigma_l = (self.params.eps_l * V - self.mat[T0] * q) / u
-            return mid, sigma_l, sigma_l + q
-        return mid, e[:, 0], e[:, 1]
+        if self.scheme_id == PAPER:
+            e = y[self.nbord:].reshape(self.M, 2)
+            return 0.5 * (s[:-1] + s[1:]), e[:, 0], e[:, 1]
+        if self.scheme_id == NODAL:
+            q = y[self.nbord:]
+        else:
+            q = y[self.nbord:]
+            s = 0.5 * (s[:-1] + s[1:])
+        u = self.mat[T0] + self.kin.t_l(s, y[0])
+        sigma_l = (self.params.eps_l * V - self.mat[T0] * q) / u
+        return s, sigma_l, sigma_l + q

@@ -17,7 +17,7 @@ from pathlib import Path
 EPS0 = 8.8541878128e-12  # vacuum permittivity, F/m
 
 LAYOUTS = ("v-shaped", "peano-hasel")
-SCHEMES = ("continuum", "paper")
+SCHEMES = ("continuum", "continuum-p0", "paper")
 LAWS = ("constant", "linear")
 PRESETS = {"vshape-table1": "vshape-table1.toml", "peano-fig10": "peano-fig10.toml"}
 
@@ -94,7 +94,7 @@ class Parameters:
     b: float = 10.0
     m: float = 0.0
     k: float = 0.0
-    N: int = 161
+    N: int = 81
     scheme: str = "continuum"
     rho_t_s: float = 100.0
     rtol: float = 1e-4

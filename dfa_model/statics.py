@@ -18,7 +18,7 @@ def _model(p):
 def static_state(model: DFAModel, x: float, V: float) -> np.ndarray:
     """State at stroke x with no interface charge (sigma_f = sigma_l, Eq. 11)."""
     y = model.initial_state(x)
-    if model.nb == 2:   # paper scheme: capacitive divider at each element midpoint
+    if model.params.scheme == "paper":   # paper scheme: capacitive divider at each element midpoint
         s = model.element_edges()
         mid = 0.5 * (s[:-1] + s[1:])
         t_l = model.kin.t_l(mid, x)

@@ -12,7 +12,7 @@ def vshape():
 
 @pytest.fixture(scope="session")
 def vshape81():
-    """Coarser than the default for speed where a trend, not a digit, is tested."""
+    """The default discretization (N = 81), named for the tests that rely on its N."""
     return preset("vshape-table1").replace(N=81)
 
 

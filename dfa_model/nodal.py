@@ -1,0 +1,325 @@
+"""Scheme "continuum" (default): nodal, piecewise-linear interface charge.
+
+States q_i at the N material points; q(s) is interpolated linearly, so the charge at
+the zipping front, and with it the force, is continuous as the front moves (with q
+uniform per element the front's crossing of each element boundary made the stroke
+jerk and convergence in N first-order and oscillatory). Charge rates are the Galerkin
+projection of J_l - J_f on the hat functions with a lumped (diagonal) mass:
+
+    m_i dq_i/dt = int phi_i(s) [J_l(E_l(s)) - sigma_f(s)/tau_f] ds,
+    sigma_l(s) = A(s)/u(s), A = eps_l V - T0 q(s), u = t_l + T0, sigma_f = sigma_l + q,
+
+and F_e = w/(2 eps_l) D int A^2 (dt_l/dp)/u^2 ds. Element integrals use 3-point
+Gauss-Legendre on the zipped part and graded 8-point Gauss in ln(s - l_z + c) on the
+unzipped part (exact static force to ~1e-12 relative for the V-shaped gap).
+
+The Jacobian in q is tridiagonal (analytic); with the stroke row and column it is a
+bordered tridiagonal system, solved in O(N) by the Thomas algorithm and a Schur
+complement for the mechanical unknowns.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .equations import (B, C_LAYOUT, C_M, C_NBORD, DS, EPS_L, K, MASS, NPOW, QSC, R_ANG, R_C, R_EMAX,
+                        R_F, R_FE, R_I, R_LZ, R_Q, R_U, R_V, R_VOLT, T0, TAU_F, U0, W, XSC, j_of_E, mech_rhs)
+from .kinematics import front_slope, kin_eval, profile, zipping_angle
+
+# Gauss-Legendre rules of 2, 3, 4, 6 and 8 points, padded into one table
+GN = np.array([2, 3, 4, 6, 8])
+GXS = np.zeros((5, 8))
+GWS = np.zeros((5, 8))
+for _i, _n in enumerate(GN):
+    GXS[_i, :_n], GWS[_i, :_n] = np.polynomial.legendre.leggauss(_n)
+# order of the graded rule by the span L of ln(s - l_z + c) over the element: the
+# integrands behave like exp(-y), for which these keep the relative error < 1e-5
+SPAN = np.array([0.15, 0.6, 1.5, 3.0])
+NQMAX = 11
+
+
+@njit(cache=True)
+def elem_nodes(layout, const, geo, mat, kin, sa, sb, xi, wt, uu, dd):
+    """Quadrature nodes of element [sa, sb]: local coordinate xi in [0, 1], weight
+    (m), u = t_l + T0 and dt_l/dp. Returns the number of nodes."""
+    ds = sb - sa
+    u0 = mat[U0]
+    lz = kin[0]
+    n = 0
+    ze = min(sb, lz)
+    if ze > sa:
+        # zipped part: u = u0 and no force; integrands are polynomials of degree <= 2
+        # in s for a constant law (2 points are exact), smooth otherwise (3 points)
+        h = 0.5 * (ze - sa)
+        m = 0.5 * (ze + sa)
+        r = 0 if const else 1
+        for i in range(GN[r]):
+            s = m + h * GXS[r, i]
+            xi[n] = (s - sa) / ds
+            wt[n] = h * GWS[r, i]
+            uu[n] = u0
+            dd[n] = 0.0
+            n += 1
+    if sb > lz and lz < geo[2]:
+        sga = max(sa, lz) - lz
+        sgb = sb - lz
+        c = u0 / front_slope(layout, kin)
+        ya = math.log(sga + c)
+        yb = math.log(sgb + c)
+        hy = 0.5 * (yb - ya)
+        ym = 0.5 * (yb + ya)
+        r = 0
+        while r < 4 and yb - ya > SPAN[r]:
+            r += 1
+        for i in range(GN[r]):
+            ey = math.exp(ym + hy * GXS[r, i])
+            sg = ey - c
+            gap, dgap = profile(layout, geo, kin, sg)
+            xi[n] = (sg + lz - sa) / ds
+            wt[n] = hy * GWS[r, i] * ey
+            uu[n] = u0 + gap
+            dd[n] = dgap
+            n += 1
+    elif sb > lz:                                 # beyond the electrode end: all zipped
+        pass
+    return n
+
+
+@njit(cache=True)
+def _g(law, lawp, const, mat, V, qs, u):
+    """Pointwise J_l - J_f and its derivative with respect to q(s)."""
+    eps_l, t0, tau_f = mat[EPS_L], mat[T0], mat[TAU_F]
+    A = eps_l * V - t0 * qs
+    sl = A / u
+    if const:
+        Jl = sl / lawp[0] / eps_l
+        dJ = 1.0 / (lawp[0] * eps_l)
+    else:
+        E = sl / eps_l
+        Jl = j_of_E(law, lawp, E)
+        hE = 1e-6 * abs(E) + 1e-3
+        dJ = (j_of_E(law, lawp, E + hE) - j_of_E(law, lawp, E - hE)) / (2.0 * hE) / eps_l
+    g = Jl - (sl + qs) / tau_f
+    dg = -dJ * t0 / u - (1.0 - t0 / u) / tau_f
+    return A, sl, Jl, g, dg
+
+
+@njit(cache=True)
+def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe):
+    """ydot = f(y); with jac, also the tridiagonal dq'/dq (tri[i] = [sub, diag, sup])
+    and the force derivatives jbe[i] = dT/dq_i. Returns F_e."""
+    nbord, M = cfg[C_NBORD], cfg[C_M]
+    layout = cfg[C_LAYOUT]
+    const = law == 0
+    ds = mat[DS]
+    t0 = mat[T0]
+    kin_eval(layout, geo, y[0], kin)
+    nq = M + 1
+    for i in range(nq):
+        ydot[nbord + i] = 0.0
+        if jac:
+            tri[i, 0] = 0.0
+            tri[i, 1] = 0.0
+            tri[i, 2] = 0.0
+            jbe[i] = 0.0
+    xi = np.empty(NQMAX)
+    wt = np.empty(NQMAX)
+    uu = np.empty(NQMAX)
+    dd = np.empty(NQMAX)
+    T = 0.0
+    for e in range(M):
+        qa = y[nbord + e]
+        qb = y[nbord + e + 1]
+        nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
+        b0 = 0.0
+        b1 = 0.0
+        for k in range(nn):
+            p1 = xi[k]
+            p0 = 1.0 - p1
+            qs = qa * p0 + qb * p1
+            A, sl, Jl, g, dg = _g(law, lawp, const, mat, V, qs, uu[k])
+            b0 += wt[k] * p0 * g
+            b1 += wt[k] * p1 * g
+            tf = wt[k] * A * A * dd[k] / (uu[k] * uu[k])
+            T += tf
+            if jac:
+                wdg = wt[k] * dg
+                tri[e, 1] += wdg * p0 * p0
+                tri[e, 2] += wdg * p0 * p1
+                tri[e + 1, 0] += wdg * p1 * p0
+                tri[e + 1, 1] += wdg * p1 * p1
+                dT = wt[k] * 2.0 * A * (-t0) * dd[k] / (uu[k] * uu[k])
+                jbe[e] += dT * p0
+                jbe[e + 1] += dT * p1
+        ydot[nbord + e] += b0
+        ydot[nbord + e + 1] += b1
+    for i in range(nq):
+        mi = ds if 0 < i < nq - 1 else 0.5 * ds      # lumped mass
+        ydot[nbord + i] /= mi
+        if jac:
+            tri[i, 0] /= mi
+            tri[i, 1] /= mi
+            tri[i, 2] /= mi
+    Fe = mat[W] / (2.0 * mat[EPS_L]) * kin[1] * T
+    mech_rhs(cfg, mat, F, y, Fe, ydot)
+    return Fe
+
+
+@njit(cache=True)
+def jacobian_p1(cfg, geo, mat, law, lawp, V, F, y, f0, tri, Jeb, Jbe, Jbb, kin, tmp, ytmp):
+    """Bordered tridiagonal Jacobian: tri (dq'/dq), Jeb[:, 0] (dq'/dx), Jbe[:, 0]
+    (d of the force-bearing mechanical rate / dq), Jbb. f0 receives f(y)."""
+    nbord, M = cfg[C_NBORD], cfg[C_M]
+    nq = M + 1
+    jbe = np.empty(nq)
+    rhs_p1(cfg, geo, mat, law, lawp, V, F, y, f0, kin, True, tri, jbe)
+    D = kin[1]
+    cF = mat[W] / (2.0 * mat[EPS_L])
+    den = mat[B] if nbord == 1 else mat[MASS]
+    for i in range(nq):
+        Jbe[i, 0] = -cF * D * jbe[i] / den
+    hx = 1e-7 * mat[XSC]
+    for i in range(y.shape[0]):
+        ytmp[i] = y[i]
+    ytmp[0] += hx
+    rhs_p1(cfg, geo, mat, law, lawp, V, F, ytmp, tmp, kin, False, tri, jbe)
+    for i in range(nq):
+        Jeb[i, 0] = (tmp[nbord + i] - f0[nbord + i]) / hx
+    Jbb[:, :] = 0.0
+    if nbord == 1:
+        Jbb[0, 0] = (tmp[0] - f0[0]) / hx
+    else:
+        Jbb[0, 1] = 1.0
+        Jbb[1, 0] = (tmp[1] - f0[1]) / hx
+        Jbb[1, 1] = -mat[B] / mat[MASS]
+    kin_eval(cfg[C_LAYOUT], geo, y[0], kin)
+    return nbord - 1
+
+
+@njit(cache=True)
+def _thomas(cp, dinv, tri, gh, r, roff, out, ooff, nq):
+    """Solve (I - gh tri) z = r[roff:] with the stored factorization."""
+    # forward
+    prev = 0.0
+    for i in range(nq):
+        a = -gh * tri[i, 0]
+        z = (r[roff + i] - a * prev) * dinv[i]
+        out[ooff + i] = z
+        prev = z
+    for i in range(nq - 2, -1, -1):
+        out[ooff + i] -= cp[i] * out[ooff + i + 1]
+
+
+@njit(cache=True)
+def factor_p1(cfg, gh, tri, Jeb, Jbe, Jbb, fb, cp, dinv, zeta, S):
+    nbord, M = cfg[C_NBORD], cfg[C_M]
+    nq = M + 1
+    for i in range(nq):
+        a = -gh * tri[i, 0]
+        b = 1.0 - gh * tri[i, 1]
+        c = -gh * tri[i, 2]
+        den = b - (a * cp[i - 1] if i > 0 else 0.0)
+        dinv[i] = 1.0 / den
+        cp[i] = c / den
+    col = np.empty(nq)
+    for i in range(nq):
+        col[i] = -gh * Jeb[i, 0]
+    _thomas(cp, dinv, tri, gh, col, 0, zeta, 0, nq)
+    for a in range(nbord):
+        for b in range(nbord):
+            S[a, b] = (1.0 if a == b else 0.0) - gh * Jbb[a, b]
+    acc = 0.0
+    for i in range(nq):
+        acc += -gh * Jbe[i, 0] * zeta[i]
+    S[fb, 0] -= acc
+
+
+@njit(cache=True)
+def solve_p1(cfg, gh, tri, cp, dinv, zeta, Jbe, S, fb, r, out):
+    nbord, M = cfg[C_NBORD], cfg[C_M]
+    nq = M + 1
+    _thomas(cp, dinv, tri, gh, r, nbord, out, nbord, nq)
+    acc = 0.0
+    for i in range(nq):
+        acc += -gh * Jbe[i, 0] * out[nbord + i]
+    if nbord == 1:
+        dx = (r[0] - acc) / S[0, 0]
+        out[0] = dx
+    else:
+        rb0 = r[0]
+        rb1 = r[1] - acc
+        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+        dx = (rb0 * S[1, 1] - S[0, 1] * rb1) / det
+        out[0] = dx
+        out[1] = (S[0, 0] * rb1 - S[1, 0] * rb0) / det
+    for i in range(nq):
+        out[nbord + i] -= zeta[i] * dx
+
+
+@njit(cache=True)
+def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P):
+    """Outputs and powers (see equations.diagnostics) for the nodal scheme. The
+    'intra' power is the Galerkin projection term int 2 t_f E_f (g - q'(s)) ds."""
+    nbord, M = cfg[C_NBORD], cfg[C_M]
+    layout = cfg[C_LAYOUT]
+    const = law == 0
+    eps_l, t0, ds, w, tau_f = mat[EPS_L], mat[T0], mat[DS], mat[W], mat[TAU_F]
+    kin_eval(layout, geo, y[0], kin)
+    D = kin[1]
+    v = ydot[0] if nbord == 1 else y[1]
+    if y[0] <= 0.0 and v < 0.0:
+        v = 0.0
+    xi = np.empty(NQMAX)
+    wt = np.empty(NQMAX)
+    uu = np.empty(NQMAX)
+    dd = np.empty(NQMAX)
+    I = 0.0
+    C = 0.0
+    U = 0.0
+    Q = 0.0
+    PJ = 0.0
+    Pint = 0.0
+    T = 0.0
+    Emax = 0.0
+    for e in range(M):
+        qa, qb = y[nbord + e], y[nbord + e + 1]
+        qda, qdb = ydot[nbord + e], ydot[nbord + e + 1]
+        nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
+        for k in range(nn):
+            p1 = xi[k]
+            p0 = 1.0 - p1
+            qs = qa * p0 + qb * p1
+            qd = qda * p0 + qdb * p1
+            u = uu[k]
+            A, sl, Jl, g, dg = _g(law, lawp, const, mat, V, qs, u)
+            sf = sl + qs
+            Ad = eps_l * dVdt - t0 * qd
+            wk = wt[k]
+            T += wk * A * A * dd[k] / (u * u)
+            I += wk * (Ad / u - A * v * D * dd[k] / (u * u) + Jl)
+            C += wk / u
+            U += wk * ((A * A + 2.0 * t0 * A * qs) / u + t0 * qs * qs)
+            Q += wk * sf
+            PJ += wk * ((A / (eps_l * u)) * (u - t0) * Jl + t0 / eps_l * sf * sf / tau_f)
+            Pint += wk * t0 / eps_l * sf * (g - qd)
+            Emax = max(Emax, abs(A) / (eps_l * u))
+    Fe = w / (2.0 * eps_l) * D * T
+    rec[R_V] = v
+    rec[R_LZ] = kin[0]
+    rec[R_ANG] = zipping_angle(layout, geo, kin)
+    rec[R_FE] = -Fe
+    rec[R_I] = w * I
+    rec[R_C] = w * eps_l * C
+    rec[R_U] = w / (2.0 * eps_l) * U
+    rec[R_VOLT] = V
+    rec[R_F] = F
+    rec[R_EMAX] = Emax
+    rec[R_Q] = w * Q
+    P[0] = V * w * I
+    P[1] = w * PJ
+    P[2] = w * Pint
+    P[3] = 0.0
+    P[4] = mat[B] * v * v
+    P[5] = (F + mat[K] * y[0]) * v
