@@ -129,9 +129,27 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe):
     uu = np.empty(NQMAX)
     dd = np.empty(NQMAX)
     T = 0.0
+    lz = kin[0]
+    # fully zipped elements with a constant law: g = a0 + a1 q(s) exactly (u = u0)
+    c_lf = 0.0
+    a0 = 0.0
+    a1 = 0.0
+    if const:
+        c_lf = 1.0 / (lawp[0] * mat[EPS_L]) - 1.0 / mat[TAU_F]
+        a0 = mat[EPS_L] * V * c_lf / mat[U0]
+        a1 = -(t0 * c_lf / mat[U0] + 1.0 / mat[TAU_F])
     for e in range(M):
         qa = y[nbord + e]
         qb = y[nbord + e + 1]
+        if const and (e + 1) * ds <= lz:
+            ydot[nbord + e] += ds * (0.5 * a0 + a1 * (qa / 3.0 + qb / 6.0))
+            ydot[nbord + e + 1] += ds * (0.5 * a0 + a1 * (qa / 6.0 + qb / 3.0))
+            if jac:
+                tri[e, 1] += a1 * ds / 3.0
+                tri[e, 2] += a1 * ds / 6.0
+                tri[e + 1, 0] += a1 * ds / 6.0
+                tri[e + 1, 1] += a1 * ds / 3.0
+            continue
         nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
         b0 = 0.0
         b1 = 0.0
