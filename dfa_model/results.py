@@ -145,6 +145,23 @@ class Result:
         from .plotting import plot_result
         return plot_result(self, path, title)
 
+    def front_field(self):
+        """|E_l| (V/m) at the zipped material point next to the front, at each output
+        (needs charges=True): the portion that dominates the unzipping (Sec. 4.3.2)."""
+        if self.states is None:
+            raise ValueError("front_field: run simulate(..., charges=True)")
+        out = np.empty(len(self.t))
+        for i in range(len(self.t)):
+            s, sigma_l, _ = self.model.charges(self.states[i], self.V[i])
+            zipped = np.nonzero(s <= self.lz[i])[0]
+            j = zipped[-1] if zipped.size else 0
+            out[i] = abs(sigma_l[j]) / self.params.eps_l
+        return out
+
+    def front_resistivity(self):
+        """rho_l (ohm m) of the zipped material point next to the front (charges=True)."""
+        return self.model.law.rho(self.front_field())
+
     def charge_profile(self, index=-1):
         """(s, sigma_l, sigma_f) along the electrode at output `index` (needs charges=True)."""
         if self.states is None:
