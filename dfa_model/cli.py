@@ -32,21 +32,9 @@ def _params(args):
 
 
 def _protocol(args):
-    from .waveforms import DC, Bipolar, Protocol, Stage, Unipolar
-    if args.duration is None:
-        raise CLIError("--duration: required (seconds of the hold stage, after any --reset)")
-    if args.waveform == "dc":
-        wf = DC(args.voltage)
-    else:
-        if args.frequency is None:
-            raise CLIError(f"--frequency: required with --waveform {args.waveform}")
-        duty = args.duty if args.duty is not None else (1.0 if args.waveform == "bipolar" else 0.5)
-        wf = (Bipolar if args.waveform == "bipolar" else Unipolar)(args.voltage, args.frequency, duty)
-    stages = []
-    if args.reset:
-        stages.append(Stage(Bipolar(args.voltage, args.reset_frequency, 1.0), args.reset, "reset"))
-    stages.append(Stage(wf, args.duration, "hold"))
-    return Protocol(stages)
+    from .waveforms import build_protocol
+    return build_protocol(args.voltage, args.duration, args.waveform, args.frequency, args.duty, args.reset,
+                          args.reset_frequency)
 
 
 def cmd_params(args):
@@ -89,6 +77,38 @@ def cmd_simulate(args):
               file=sys.stderr)
 
 
+def cmd_sweep(args):
+    from . import sweep
+    p = _params(args)
+    settings = {"voltage": args.voltage, "force": args.force, "waveform": args.waveform, "frequency": args.frequency,
+                "duty": args.duty, "reset": args.reset, "reset_frequency": args.reset_frequency,
+                "duration": args.duration}
+    cases = sweep.grid(p, settings, **sweep.parse_vary(args.vary))
+    executor = None
+    client = None
+    if args.scheduler:
+        from dask.distributed import Client
+        client = Client(args.scheduler)
+        executor = client.get_executor()
+    try:
+        rows = sweep.run(cases, executor=executor, max_workers=args.workers, progress=not args.quiet)
+    finally:
+        if client is not None:
+            client.close()
+    if args.out:
+        sweep.write_csv(rows, args.out)
+    failed = [r for r in rows if r["status"] != "ok"]
+    for r in rows:
+        if r["status"] == "ok":
+            print(f"{r['label']}: static {r['static_stroke'] * 1e3:.4f} mm, unzipping {r['unzipping_speed'] * 1e6:.4f} um/s")
+        else:
+            print(f"{r['label']}: FAILED {r['error']}")
+    if failed:
+        print(f"dfa: warning: {len(failed)} of {len(rows)} runs failed (listed above)", file=sys.stderr)
+        return 1
+    return 0
+
+
 def build_parser():
     ap = _Parser(prog="dfa", description="Dielectric fluid actuator model (continuum RC + 1-DOF mechanics).")
     sub = ap.add_subparsers(dest="command", parser_class=_Parser)
@@ -115,6 +135,26 @@ def build_parser():
     ps.add_argument("--plot", metavar="FILE.png")
     ps.add_argument("--json", action="store_true", help="print metrics as one JSON object")
     ps.set_defaults(func=cmd_simulate)
+
+    pw = sub.add_parser("sweep", help="run a grid of variants in parallel (local processes or Dask)")
+    pw.add_argument("--preset", choices=list(parameters.PRESETS))
+    pw.add_argument("--params", metavar="FILE")
+    pw.add_argument("--set", action="append", metavar="KEY=VALUE")
+    pw.add_argument("--vary", action="append", metavar="KEY=V1,V2,...",
+                    help="a parameter key, or voltage/force/reset/duration/frequency/duty/theta0 (repeatable: grid)")
+    pw.add_argument("--voltage", type=float, required=True)
+    pw.add_argument("--force", type=float, default=0.0)
+    pw.add_argument("--waveform", choices=["dc", "bipolar", "unipolar"], default="dc")
+    pw.add_argument("--frequency", type=float)
+    pw.add_argument("--duty", type=float)
+    pw.add_argument("--reset", type=float, default=0.0)
+    pw.add_argument("--reset-frequency", type=float, default=30.0)
+    pw.add_argument("--duration", type=float)
+    pw.add_argument("--workers", type=int, help="local processes (default: all cores)")
+    pw.add_argument("--scheduler", metavar="ADDRESS", help="run on a dask.distributed scheduler")
+    pw.add_argument("--out", metavar="FILE.csv", help="one row per variant: varied values, metrics, status")
+    pw.add_argument("--quiet", action="store_true", help="no progress bar")
+    pw.set_defaults(func=cmd_sweep)
     return ap
 
 
@@ -132,8 +172,8 @@ def main(argv=None):
         with warnings.catch_warnings():
             warnings.simplefilter("always", PhysicsWarning)
             warnings.showwarning = lambda m, c, *a, **k: print(f"dfa: warning: {m}", file=sys.stderr)
-            args.func(args)
-        return 0
+            rc = args.func(args)
+        return rc or 0
     except (CLIError, parameters.ParameterError, WaveformError, SolverError, ValueError) as exc:
         print(f"dfa: error: {exc}", file=sys.stderr)
         return 2

@@ -328,3 +328,27 @@ class Load:
     @property
     def F0(self) -> float:
         return float(self.piecewise(1.0).v0[0])
+
+
+def build_protocol(voltage, duration, waveform="dc", frequency=None, duty=None, reset=0.0,
+                   reset_frequency=30.0) -> Protocol:
+    """The CLI's protocol: optional charge reset (bipolar, 100 % duty, at `voltage`),
+    then `duration` s of `waveform` ('dc', 'bipolar' or 'unipolar')."""
+    if duration is None:
+        raise WaveformError("duration: required (seconds of the hold stage, after any reset)")
+    if waveform == "dc":
+        wf = DC(voltage)
+    elif waveform in ("bipolar", "unipolar"):
+        if frequency is None:
+            raise WaveformError(f"--frequency: required with waveform {waveform}")
+        if duty is None:
+            duty = 1.0 if waveform == "bipolar" else 0.5
+        wf = (Bipolar if waveform == "bipolar" else Unipolar)(voltage, frequency, duty)
+    else:
+        raise WaveformError(f"waveform: got {waveform!r}, expected 'dc', 'bipolar' or 'unipolar'")
+    stages = []
+    if reset:
+        reset = _finite("reset", reset, 0.0)
+        stages.append(Stage(Bipolar(voltage, reset_frequency, 1.0), reset, "reset"))
+    stages.append(Stage(wf, duration, "hold"))
+    return Protocol(stages)
