@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .equations import C_M, C_NB, C_NBORD, C_SCHEME, NPOW, NREC, R_C, R_EIN, R_T, R_X
+from .equations import C_M, C_NB, C_NBORD, C_SCHEME, NPOW, NREC, R_C, R_EIN, R_T, R_X, XSC
 from .kernels import NODAL, diagnostics, factor, jacobian, solve
 from .kernels import rhs as rhs_any
 
@@ -70,10 +70,31 @@ def _record(cfg, geo, mat, law, lawp, t, V, dVdt, F, y, ydot, E, kin, work, row,
 
 
 @njit(cache=True)
+def _net(cfg, geo, mat, law, lawp, V, F, y, x, tmp, ytmp, kin, work, tri, jbe):
+    """Stroke rate dx/dt with the stroke set to x (other states as in y)."""
+    for i in range(y.shape[0]):
+        ytmp[i] = y[i]
+    ytmp[0] = x
+    rhs_any(cfg, geo, mat, law, lawp, V, F, ytmp, tmp, kin, work, tri, jbe)
+    return tmp[0]
+
+
+@njit(cache=True)
+def _attracting(cfg, geo, mat, law, lawp, V, F, y, xk, eps, tmp, ytmp, kin, work, tri, jbe):
+    return (_net(cfg, geo, mat, law, lawp, V, F, y, xk - eps, tmp, ytmp, kin, work, tri, jbe) > 0.0 and
+            _net(cfg, geo, mat, law, lawp, V, F, y, xk + eps, tmp, ytmp, kin, work, tri, jbe) < 0.0)
+
+
+@njit(cache=True)
 def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_Fs, V_prev,
-              rtol, scale, h0, t_out, want_energy, store_states, max_steps):
+              rtol, scale, h0, t_out, want_energy, store_states, max_steps, xc):
     """Integrate from seg_t[0] to seg_t[-1]. Records every accepted step, or the times
-    t_out if given (cubic Hermite dense output). Returns (rec, states, stats, y_end)."""
+    t_out if given (cubic Hermite dense output). Returns (rec, states, stats, y_end).
+
+    xc: strokes where the force jumps (the paper scheme's midpoint crossings; empty
+    otherwise). There the stroke equation has a discontinuous right-hand side and the
+    equilibrium is a sliding point: the stroke sticks at a crossing while the force
+    pushes towards it from both sides and is released when it no longer does."""
     n = y0.shape[0]
     M, nb = cfg[C_M], cfg[C_NB]
     nbord = cfg[C_NBORD]
@@ -123,6 +144,9 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     grid = t_out.shape[0] > 0
     kout = 0
     nseg = seg_t.shape[0] - 1
+    stuck = -1                    # index into xc while sliding
+    sliding = xc.shape[0] > 0 and nbord == 1
+    eps_x = 1e-9 * mat[XSC]
     t = seg_t[0]
     hn = h0
     h = h0
@@ -145,6 +169,11 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             E[3] += 0.5 * C * dV * dV
         rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
         nfev += 1
+        if stuck >= 0:
+            if _attracting(cfg, geo, mat, law, lawp, V0, F0, y, xc[stuck], eps_x, tmp, ytmp, kin, work, tri, jbe):
+                f0[0] = 0.0
+            else:
+                stuck = -1
         if sidx == 0:
             if (not grid) or (kout < t_out.shape[0] and t_out[kout] <= t):
                 rec = _grow(rec, nrec)
@@ -168,6 +197,9 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             jacobian(cfg, geo, mat, law, lawp, V0 + Vs * (t - ta), F0 + Fs * (t - ta), y, fbase,
                      Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp)
             fb = nbord - 1
+            if stuck >= 0:        # the stroke is held: its row decouples
+                Jbb[:, :] = 0.0
+                Jbe[:, :] = 0.0
             njac += 1
             nfev += 3
             gh = DG * h
@@ -184,6 +216,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             for it in range(MAXIT):
                 rhs_any(cfg, geo, mat, law, lawp, Vg, Fg, z1, fz, kin, work, tri, jbe)
                 nfev += 1
+                if stuck >= 0:
+                    fz[0] = 0.0
                 for i in range(n):
                     res[i] = -(z1[i] - y[i] - gh * f0[i] - gh * fz[i])
                 solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, dz)
@@ -219,6 +253,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 for it in range(MAXIT):
                     rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, fz, kin, work, tri, jbe)
                     nfev += 1
+                    if stuck >= 0:
+                        fz[0] = 0.0
                     for i in range(n):
                         res[i] = -(z2[i] - y[i] - h * WTR * (f0[i] + f1[i]) - gh * fz[i])
                     solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, dz)
@@ -249,6 +285,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             # differences, where a Newton-sized error would be amplified by 1/dx
             rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
             nfev += 1
+            if stuck >= 0:
+                f2[0] = 0.0
             for i in range(n):
                 res[i] = h * (E0 * f0[i] + E1 * f1[i] + E2 * f2[i])
             solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, err)
@@ -267,6 +305,38 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 continue
             # ---- accepted
             nsteps += 1
+            if sliding:
+                changed = False
+                if stuck >= 0:
+                    xk = xc[stuck]
+                    if _net(cfg, geo, mat, law, lawp, V2, F2, z2, xk - eps_x, tmp, ytmp, kin, work, tri, jbe) <= 0.0:
+                        z2[0] = xk - eps_x       # released: moves back (unzips)
+                        stuck = -1
+                        changed = True
+                    elif _net(cfg, geo, mat, law, lawp, V2, F2, z2, xk + eps_x, tmp, ytmp, kin, work, tri, jbe) >= 0.0:
+                        z2[0] = xk + eps_x       # released: moves on (zips)
+                        stuck = -1
+                        changed = True
+                elif z2[0] != y[0]:
+                    # the first attracting jump passed in the direction of motion
+                    up = z2[0] > y[0]
+                    lo, hi = (y[0], z2[0]) if up else (z2[0], y[0])
+                    ia = np.searchsorted(xc, lo)
+                    ib = np.searchsorted(xc, hi)
+                    k = ia if up else ib - 1
+                    while ia <= k < ib:
+                        if _attracting(cfg, geo, mat, law, lawp, V2, F2, z2, xc[k], eps_x, tmp, ytmp, kin, work, tri,
+                                       jbe):
+                            z2[0] = xc[k]
+                            stuck = k
+                            changed = True
+                            break
+                        k += 1 if up else -1
+                if changed:
+                    rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
+                    nfev += 1
+                    if stuck >= 0:
+                        f2[0] = 0.0
             # unilateral stop at x = 0 (films straight): project before any output
             if z2[0] < 0.0:
                 z2[0] = 0.0

@@ -55,6 +55,15 @@ class DFAModel:
         y[0] = x0
         return y
 
+    def force_jumps(self) -> np.ndarray:
+        """Strokes at which the force is discontinuous: the paper scheme's midpoint
+        crossings (the front passing an element midpoint). Empty for our schemes."""
+        if self.scheme_id != PAPER:
+            return np.empty(0)
+        s = self.element_edges()
+        mid = 0.5 * (s[:-1] + s[1:])
+        return np.array([self.kin.x_of_lz(v) for v in mid])
+
     def element_edges(self) -> np.ndarray:
         return np.linspace(0.0, self.params.l_e, self.M + 1)
 

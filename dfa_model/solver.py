@@ -77,10 +77,11 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
     rtol = p.rtol if rtol is None else float(rtol)
     scale = model.scales(protocol.amplitude)
     h0 = min(1e-6, T / 100)
+    xc = model.force_jumps()
     wall = time.perf_counter()
     rec, states, stats, y_end = integrate(model.cfg, model.geo, mat, model.law.law_id, model.law.params, y,
                                           t, V0, Vs, F0, Fs, float(V_before), rtol, scale, h0, t_out,
-                                          bool(energy), bool(charges), int(max_steps))
+                                          bool(energy), bool(charges), int(max_steps), xc)
     wall = time.perf_counter() - wall
     result = Result(model, protocol, load, rec, states if charges else None, stats, wall, y_end, energy=energy,
                     y0=y, V_before=float(V_before))

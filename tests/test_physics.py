@@ -101,3 +101,16 @@ def test_model_rhs_has_no_nan_at_extremes(vshape):
     for x in (-1e-3, 0.0, m.kin.x_e, 2 * m.kin.x_e):
         y = m.initial_state(x)
         assert np.all(np.isfinite(m.rhs(y, 6000, 5.0)))
+
+
+def test_paper_scheme_runs_through_its_sliding_points(vshape):
+    """The paper scheme's midpoint force is a staircase in x: its equilibria are
+    sliding points. It must run through (no stall) and approach the continuum result
+    from below as N grows (integrated exactly, the staircase biases it low)."""
+    peaks = []
+    for N in (201, 801):
+        r = simulate(vshape.replace(N=N, scheme="paper"), Protocol.dc(6000, 2.0), load=5.0)
+        assert r.t[-1] == pytest.approx(2.0)
+        peaks.append(r.x.max())
+    ours = simulate(vshape, Protocol.dc(6000, 2.0), load=5.0).x.max()
+    assert peaks[0] < peaks[1] < ours
