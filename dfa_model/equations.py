@@ -208,8 +208,8 @@ def jacobian(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, kin, wor
     den = mat[B] if nbord == 1 else mat[MASS]
     kin_eval(cfg[C_LAYOUT], geo, y[0], kin)
     D = kin[1]
-    rr = np.empty(2)
-    ye = np.empty(2)
+    rr = work[8:10]
+    ye = work[10:12]
     analytic = cfg[C_SCHEME] == 0 and cfg[C_CONST] == 1
     for j in range(M):
         o = nbord + j * nb
@@ -223,11 +223,11 @@ def jacobian(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, kin, wor
             continue
         for c in range(nb):
             ye[c] = y[o + c]
-        T_base = elem_rate(cfg, geo, mat, law, lawp, kin, j, V, ye, rr, work)
+        T_base = elem_rate(cfg, geo, mat, law, lawp, kin, j, V, ye, rr, work[0:8])
         for c in range(nb):
             h = 1e-7 * max(abs(ye[c]), mat[QSC])
             ye[c] += h
-            Tp = elem_rate(cfg, geo, mat, law, lawp, kin, j, V, ye, tmp, work)
+            Tp = elem_rate(cfg, geo, mat, law, lawp, kin, j, V, ye, tmp, work[0:8])
             ye[c] -= h
             for rrow in range(nb):
                 Jee[j, rrow, c] = (tmp[rrow] - f0[o + rrow]) / h

@@ -22,6 +22,7 @@ from numba import njit
 
 from .equations import C_M, C_NB, C_NBORD, C_SCHEME, NPOW, NREC, R_C, R_EIN, R_T, R_X, XSC
 from .kernels import NODAL, diagnostics, factor, jacobian, solve
+from .nodal import NWORK
 from .kernels import rhs as rhs_any
 
 GAMMA = 2.0 - math.sqrt(2.0)
@@ -114,7 +115,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     ydi = np.empty(n)
     fbase = np.empty(n)
     kin = np.zeros(6)
-    work = np.zeros(8)
+    work = np.zeros(NWORK)
     ne = M + 1          # rows: elements (block schemes) or nodes (nodal scheme)
     Jee = np.zeros((ne, nb, nb))
     Jeb = np.zeros((ne, nb))
@@ -133,6 +134,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     P1 = np.zeros(NPOW)
     P2 = np.zeros(NPOW)
     row = np.zeros(NREC)
+    Eint = np.zeros(NPOW)
     rec = np.zeros((1024, NREC))
     states = np.zeros((1024 if store_states else 1, n))
     nrec = 0
@@ -144,6 +146,10 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     grid = t_out.shape[0] > 0
     kout = 0
     nseg = seg_t.shape[0] - 1
+    jac_ok = False
+    h_fact = -1.0
+    eta = 1.0                     # Newton contraction estimate theta/(1 - theta)
+    fb = nbord - 1
     stuck = -1                    # index into xc while sliding
     sliding = xc.shape[0] > 0 and nbord == 1
     eps_x = 1e-9 * mat[XSC]
@@ -169,6 +175,17 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             E[3] += 0.5 * C * dV * dV
         rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
         nfev += 1
+        if jac_ok and sidx > 0 and V0 == -Vleft and V0 != 0.0 and seg_F0[sidx] == seg_F0[sidx - 1] + seg_Fs[sidx - 1] * (ta - seg_t[sidx - 1]):
+            # polarity inversion: the q-x couplings scale with A = eps_l V - T0 q and
+            # flip sign, the rest is unchanged for small q; a good Newton matrix for
+            # free (Newton's convergence test still guards the result)
+            for i in range(Jeb.shape[0]):
+                for c in range(nb):
+                    Jeb[i, c] = -Jeb[i, c]
+                    Jbe[i, c] = -Jbe[i, c]
+            h_fact = -1.0
+        else:
+            jac_ok = False
         if stuck >= 0:
             if _attracting(cfg, geo, mat, law, lawp, V0, F0, y, xc[stuck], eps_x, tmp, ytmp, kin, work, tri, jbe):
                 f0[0] = 0.0
@@ -194,17 +211,29 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             if nsteps + nrej >= max_steps:
                 status = MAX_STEPS
                 break
-            jacobian(cfg, geo, mat, law, lawp, V0 + Vs * (t - ta), F0 + Fs * (t - ta), y, fbase,
-                     Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp)
-            fb = nbord - 1
-            if stuck >= 0:        # the stroke is held: its row decouples
-                Jbb[:, :] = 0.0
-                Jbe[:, :] = 0.0
-            njac += 1
-            nfev += 3
+            # the Jacobian is kept across steps while Newton converges fast; it is
+            # renewed at every breakpoint, on slow or failed convergence and when the
+            # stroke sticks or is released
+            jac_fresh = False
+            if not jac_ok:
+                jacobian(cfg, geo, mat, law, lawp, V0 + Vs * (t - ta), F0 + Fs * (t - ta), y, fbase,
+                         Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp)
+                if stuck >= 0:        # the stroke is held: its row decouples
+                    Jbb[:, :] = 0.0
+                    Jbe[:, :] = 0.0
+                njac += 1
+                nfev += 2
+                jac_ok = True
+                jac_fresh = True
+                h_fact = -1.0
+                eta = 1.0
             gh = DG * h
-            factor(cfg, gh, Jee, Jeb, Jbe, Jbb, tri, fb, Winv, zeta, cp, dinv, S)
+            if h != h_fact:
+                factor(cfg, gh, Jee, Jeb, Jbe, Jbb, tri, fb, Winv, zeta, cp, dinv, S)
+                h_fact = h
+            eta = max(eta, 1e-16) ** 0.8
             ok = True
+            slow = False
             # ---- stage 1 (trapezoidal rule to t + gamma h)
             tg = t + GAMMA * h
             Vg = V0 + Vs * (tg - ta)
@@ -226,17 +255,23 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 nrm = _wnorm(dz, y, z1, scale, rtol, nbord)
                 if not math.isfinite(nrm):
                     break
-                if nrm <= NEWTON_TOL:
-                    conv = True
-                    break
-                if it > 0:
+                if it == 0:
+                    # contraction carried over from earlier iterations (Hairer & Wanner's
+                    # RADAU5 strategy): one iteration suffices when Newton contracts fast
+                    if eta * nrm <= NEWTON_TOL:
+                        conv = True
+                        break
+                else:
                     th = nrm / nprev
                     if th > 0.9:
                         break
-                    if th / (1.0 - th) * nrm <= NEWTON_TOL:
+                    eta = th / (1.0 - th)
+                    if eta * nrm <= NEWTON_TOL:
                         conv = True
                         break
                 nprev = nrm
+            if it >= 2:
+                slow = True
             if not conv:
                 ok = False
             if ok:
@@ -263,28 +298,36 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     nrm = _wnorm(dz, y, z2, scale, rtol, nbord)
                     if not math.isfinite(nrm):
                         break
-                    if nrm <= NEWTON_TOL:
-                        conv = True
-                        break
-                    if it > 0:
+                    if it == 0:
+                        if eta * nrm <= NEWTON_TOL:
+                            conv = True
+                            break
+                    else:
                         th = nrm / nprev
                         if th > 0.9:
                             break
-                        if th / (1.0 - th) * nrm <= NEWTON_TOL:
+                        eta = th / (1.0 - th)
+                        if eta * nrm <= NEWTON_TOL:
                             conv = True
                             break
                     nprev = nrm
+                if it >= 2:
+                    slow = True
                 ok = conv
+            if slow:
+                jac_ok = False
             if not ok:
                 nrej += 1
-                hn = 0.25 * h
+                if jac_fresh:
+                    hn = 0.25 * h
+                else:             # retry with a fresh Jacobian before shrinking the step
+                    hn = h
+                jac_ok = False
                 if hn < hmin:
                     status = STEP_UNDERFLOW
                 continue
-            # a fresh f(z2), not the stage relation: it seeds the next step's Jacobian
-            # differences, where a Newton-sized error would be amplified by 1/dx
-            rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
-            nfev += 1
+            for i in range(n):
+                f2[i] = (z2[i] - y[i] - h * WTR * (f0[i] + f1[i])) / gh
             if stuck >= 0:
                 f2[0] = 0.0
             for i in range(n):
@@ -333,6 +376,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                             break
                         k += 1 if up else -1
                 if changed:
+                    jac_ok = False
                     rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
                     nfev += 1
                     if stuck >= 0:
@@ -344,6 +388,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     z2[1] = 0.0
                 rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
                 nfev += 1
+                jac_ok = False
             if want_energy:
                 Eold[:] = E
                 diagnostics(cfg, geo, mat, law, lawp, Vg, Vs, Fg, z1, f1, kin, work, row, P1)
@@ -367,7 +412,6 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     if yi[0] < 0.0:     # cubic overshoot below the stop
                         yi[0] = 0.0
                     to = t_out[kout]
-                    Eint = np.empty(NPOW)
                     for i in range(NPOW):
                         Eint[i] = Eold[i] + s * (E[i] - Eold[i]) if want_energy else 0.0
                     rec = _grow(rec, nrec)

@@ -13,14 +13,14 @@ P0_SCHEME, PAPER, NODAL = 0, 1, 2
 @njit(cache=True)
 def rhs(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, work, tri, jbe):
     if cfg[C_SCHEME] == NODAL:
-        return rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, False, tri, jbe)
+        return rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, False, tri, jbe, work)
     return rhs_elem(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, work)
 
 
 @njit(cache=True)
 def jacobian(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp):
     if cfg[C_SCHEME] == NODAL:
-        return jacobian_p1(cfg, geo, mat, law, lawp, V, F, y, f0, tri, Jeb, Jbe, Jbb, kin, tmp, ytmp)
+        return jacobian_p1(cfg, geo, mat, law, lawp, V, F, y, f0, tri, Jeb, Jbe, Jbb, kin, tmp, ytmp, work, Jbe[:, 0].copy())
     return jac_blk(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, kin, work, tmp, ytmp)
 
 
@@ -43,6 +43,6 @@ def solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, r, out):
 @njit(cache=True)
 def diagnostics(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, work, rec, P):
     if cfg[C_SCHEME] == NODAL:
-        diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P)
+        diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, work)
     else:
         diag_elem(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, work, rec, P)

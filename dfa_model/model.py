@@ -12,6 +12,7 @@ from . import dielectrics, kinematics
 from .equations import (B, DS, EPS_F, EPS_L, K, MASS, NMAT, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F, TAU_L, U0,
                         W, XSC)
 from .kernels import NODAL, P0_SCHEME, PAPER, diagnostics, rhs
+from .nodal import NWORK
 
 SCHEME_IDS = {"continuum": NODAL, "continuum-p0": P0_SCHEME, "paper": PAPER}
 from .parameters import Parameters
@@ -87,7 +88,7 @@ class DFAModel:
         """dy/dt at voltage V and load F (NumPy arrays in and out)."""
         ydot = np.empty(self.n)
         rhs(self.cfg, self.geo, self.mat if mat is None else mat, self.law.law_id, self.law.params,
-            float(V), float(F), np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(8),
+            float(V), float(F), np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(NWORK),
             np.zeros((self.M + 1, 3)), np.zeros(self.M + 1))
         return ydot
 
@@ -95,7 +96,7 @@ class DFAModel:
         """Zipping force -F_e (N, positive pulls towards zipping) at state y."""
         ydot = np.empty(self.n)
         Fe = rhs(self.cfg, self.geo, self.mat, self.law.law_id, self.law.params, float(V), 0.0,
-                 np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(8),
+                 np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(NWORK),
                  np.zeros((self.M + 1, 3)), np.zeros(self.M + 1))
         return -Fe
 
@@ -107,7 +108,7 @@ class DFAModel:
         row = np.zeros(NREC)
         P = np.zeros(6)
         diagnostics(self.cfg, self.geo, mat, self.law.law_id, self.law.params, float(V), float(dVdt), float(F),
-                    y, ydot, np.zeros(6), np.zeros(8), row, P)
+                    y, ydot, np.zeros(6), np.zeros(NWORK), row, P)
         return row, P
 
     def charges(self, y, V):

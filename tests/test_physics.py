@@ -35,9 +35,10 @@ def test_blocked_stack_relaxes_with_eq20(vshape81):
 def test_matched_dielectrics_do_not_relax(vshape81):
     p = vshape81
     rho_f = p.rho_l * p.eps_r_l / p.eps_r_f          # tau_f = tau_l
-    res = simulate(p.replace(rho_f=rho_f), Protocol.dc(6000, 20.0), load=5.0)
-    # no relaxation down to the solver tolerance (rtol 1e-4); DC with Table 1 loses 55 %
-    assert abs(res.final_stroke / res.x.max() - 1) < 1e-4
+    # tight solver tolerance, so that what is measured is the physics, not step control
+    res = simulate(p.replace(rho_f=rho_f), Protocol.dc(6000, 20.0), load=5.0, rtol=1e-8)
+    # no relaxation (DC with Table 1's materials loses 55 % of the stroke)
+    assert abs(res.final_stroke / res.x.max() - 1) < 1e-6
     assert res.unzipping_speed < 1e-9
     assert abs(res.x.max() - equilibrium_stroke(p, 6000, 5.0)) < 1e-3 * res.x.max()
 
