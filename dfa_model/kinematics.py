@@ -98,7 +98,7 @@ def kin_eval(layout, geo, x, kin):
         kin[1] = D
         kin[2] = 2.0 * a / (l - lz)          # slope of the gap, dt_l/ds
         kin[3] = l - lz
-        kin[4] = 0.0
+        kin[4] = kin[2] / kin[3]
         kin[5] = 0.0
     else:
         l, A, a0, th0, the = geo[0], geo[1], geo[4], geo[6], geo[7]
@@ -132,8 +132,8 @@ def kin_eval(layout, geo, x, kin):
 def profile(layout, geo, kin, sigma):
     """Gap beyond the front at distance sigma = s - l_z: (t_l - t_lz, dt_l/dp at fixed s)."""
     if layout == V_SHAPED:
-        k, rem = kin[2], kin[3]
-        return k * sigma, -k * (1.0 - sigma / rem)
+        k = kin[2]
+        return k * sigma, -k + sigma * kin[4]       # kin[4] = k / (l - l_z)
     th, R, Rp, lzp = kin[2], kin[3], kin[4], kin[5]
     phi = th - sigma / R
     cphi, cth = math.cos(phi), math.cos(th)
