@@ -242,15 +242,21 @@ def jacobian(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, kin, wor
         o = nbord + j * nb
         for rrow in range(nb):
             Jeb[j, rrow] = (tmp[o + rrow] - f0[o + rrow]) / hx
-    Jbb[:, :] = 0.0
-    if nbord == 1:
-        Jbb[0, 0] = (tmp[0] - f0[0]) / hx
-    else:
-        Jbb[0, 1] = 1.0
-        Jbb[1, 0] = (tmp[1] - f0[1]) / hx
-        Jbb[1, 1] = -mat[B] / mat[MASS]
+    mech_jacobian(cfg, mat, tmp, f0, hx, Jbb)
     kin_eval(cfg[C_LAYOUT], geo, y[0], kin)
     return fb
+
+
+@njit(cache=True)
+def mech_jacobian(cfg, mat, fx, f0, hx, Jbb):
+    """Mechanical block of the Jacobian from f(x + hx) = fx and f(x) = f0."""
+    Jbb[:, :] = 0.0
+    if cfg[C_NBORD] == 1:
+        Jbb[0, 0] = (fx[0] - f0[0]) / hx
+    else:
+        Jbb[0, 1] = 1.0
+        Jbb[1, 0] = (fx[1] - f0[1]) / hx
+        Jbb[1, 1] = -mat[B] / mat[MASS]
 
 
 @njit(cache=True)

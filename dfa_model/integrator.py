@@ -71,6 +71,43 @@ def _record(cfg, geo, mat, law, lawp, t, V, dVdt, F, y, ydot, E, kin, work, row,
 
 
 @njit(cache=True)
+def _newton(cfg, geo, mat, law, lawp, V, F, z, base, gh, held, fz, res, dz, y, scale, rtol, Winv, zeta, Jbe, tri,
+            cp, dinv, S, fb, kin, work, jbe, eta):
+    """Simplified Newton for a stage z = base + gh f(z) with the factored matrix.
+    `eta` carries the contraction estimate theta/(1 - theta) from earlier iterations
+    (Hairer & Wanner's RADAU5 strategy): one iteration suffices when Newton contracts
+    fast. With `held`, the stroke is stuck at a force jump (dx/dt = 0). Returns
+    (converged, iterations, eta)."""
+    n = z.shape[0]
+    nbord = cfg[C_NBORD]
+    nprev = 0.0
+    for it in range(MAXIT):
+        rhs_any(cfg, geo, mat, law, lawp, V, F, z, fz, kin, work, tri, jbe)
+        if held:
+            fz[0] = 0.0
+        for i in range(n):
+            res[i] = -(z[i] - base[i] - gh * fz[i])
+        solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, dz)
+        for i in range(n):
+            z[i] += dz[i]
+        nrm = _wnorm(dz, y, z, scale, rtol, nbord)
+        if not math.isfinite(nrm):
+            return False, it + 1, eta
+        if it == 0:
+            if eta * nrm <= NEWTON_TOL:
+                return True, 1, eta
+        else:
+            th = nrm / nprev
+            if th > 0.9:
+                return False, it + 1, eta
+            eta = th / (1.0 - th)
+            if eta * nrm <= NEWTON_TOL:
+                return True, it + 1, eta
+        nprev = nrm
+    return False, MAXIT, eta
+
+
+@njit(cache=True)
 def _net(cfg, geo, mat, law, lawp, V, F, y, x, tmp, ytmp, kin, work, tri, jbe):
     """Stroke rate dx/dt with the stroke set to x (other states as in y)."""
     for i in range(y.shape[0]):
@@ -114,6 +151,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     yi = np.empty(n)
     ydi = np.empty(n)
     fbase = np.empty(n)
+    base = np.empty(n)
     kin = np.zeros(6)
     work = np.zeros(NWORK)
     ne = M + 1          # rows: elements (block schemes) or nodes (nodal scheme)
@@ -232,87 +270,31 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 factor(cfg, gh, Jee, Jeb, Jbe, Jbb, tri, fb, Winv, zeta, cp, dinv, S)
                 h_fact = h
             eta = max(eta, 1e-16) ** 0.8
-            ok = True
-            slow = False
-            # ---- stage 1 (trapezoidal rule to t + gamma h)
+            # ---- stage 1 (trapezoidal rule to t + gamma h), then stage 2 (BDF2 to t + h)
             tg = t + GAMMA * h
             Vg = V0 + Vs * (tg - ta)
             Fg = F0 + Fs * (tg - ta)
             for i in range(n):
                 z1[i] = y[i] + GAMMA * h * f0[i]
-            nprev = 0.0
-            conv = False
-            for it in range(MAXIT):
-                rhs_any(cfg, geo, mat, law, lawp, Vg, Fg, z1, fz, kin, work, tri, jbe)
-                nfev += 1
-                if stuck >= 0:
-                    fz[0] = 0.0
-                for i in range(n):
-                    res[i] = -(z1[i] - y[i] - gh * f0[i] - gh * fz[i])
-                solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, dz)
-                for i in range(n):
-                    z1[i] += dz[i]
-                nrm = _wnorm(dz, y, z1, scale, rtol, nbord)
-                if not math.isfinite(nrm):
-                    break
-                if it == 0:
-                    # contraction carried over from earlier iterations (Hairer & Wanner's
-                    # RADAU5 strategy): one iteration suffices when Newton contracts fast
-                    if eta * nrm <= NEWTON_TOL:
-                        conv = True
-                        break
-                else:
-                    th = nrm / nprev
-                    if th > 0.9:
-                        break
-                    eta = th / (1.0 - th)
-                    if eta * nrm <= NEWTON_TOL:
-                        conv = True
-                        break
-                nprev = nrm
-            if it >= 2:
-                slow = True
-            if not conv:
-                ok = False
+                base[i] = y[i] + gh * f0[i]
+            conv, its, eta = _newton(cfg, geo, mat, law, lawp, Vg, Fg, z1, base, gh, stuck >= 0, fz, res, dz, y,
+                                     scale, rtol, Winv, zeta, Jbe, tri, cp, dinv, S, fb, kin, work, jbe, eta)
+            nfev += its
+            slow = its > 2
+            ok = conv
             if ok:
                 for i in range(n):
-                    f1[i] = (z1[i] - y[i] - gh * f0[i]) / gh
-                # ---- stage 2 (BDF2 to t + h)
+                    f1[i] = (z1[i] - base[i]) / gh
                 t2 = t + h
                 V2 = V0 + Vs * (t2 - ta)
                 F2 = F0 + Fs * (t2 - ta)
                 for i in range(n):
                     z2[i] = z1[i] + (1.0 - GAMMA) * h * f1[i]
-                conv = False
-                nprev = 0.0
-                for it in range(MAXIT):
-                    rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, fz, kin, work, tri, jbe)
-                    nfev += 1
-                    if stuck >= 0:
-                        fz[0] = 0.0
-                    for i in range(n):
-                        res[i] = -(z2[i] - y[i] - h * WTR * (f0[i] + f1[i]) - gh * fz[i])
-                    solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, dz)
-                    for i in range(n):
-                        z2[i] += dz[i]
-                    nrm = _wnorm(dz, y, z2, scale, rtol, nbord)
-                    if not math.isfinite(nrm):
-                        break
-                    if it == 0:
-                        if eta * nrm <= NEWTON_TOL:
-                            conv = True
-                            break
-                    else:
-                        th = nrm / nprev
-                        if th > 0.9:
-                            break
-                        eta = th / (1.0 - th)
-                        if eta * nrm <= NEWTON_TOL:
-                            conv = True
-                            break
-                    nprev = nrm
-                if it >= 2:
-                    slow = True
+                    base[i] = y[i] + h * WTR * (f0[i] + f1[i])
+                conv, its, eta = _newton(cfg, geo, mat, law, lawp, V2, F2, z2, base, gh, stuck >= 0, fz, res, dz, y,
+                                         scale, rtol, Winv, zeta, Jbe, tri, cp, dinv, S, fb, kin, work, jbe, eta)
+                nfev += its
+                slow = slow or its > 2
                 ok = conv
             if slow:
                 jac_ok = False
@@ -327,7 +309,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     status = STEP_UNDERFLOW
                 continue
             for i in range(n):
-                f2[i] = (z2[i] - y[i] - h * WTR * (f0[i] + f1[i])) / gh
+                f2[i] = (z2[i] - base[i]) / gh
             if stuck >= 0:
                 f2[0] = 0.0
             for i in range(n):

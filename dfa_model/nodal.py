@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 from .equations import (B, C_LAYOUT, C_M, C_NBORD, DS, EPS_L, K, MASS, NPOW, QSC, R_ANG, R_C, R_EMAX,
-                        R_F, R_FE, R_I, R_LZ, R_Q, R_U, R_V, R_VOLT, T0, TAU_F, U0, W, XSC, j_of_E, mech_rhs)
+                        R_F, R_FE, R_I, R_LZ, R_Q, R_U, R_V, R_VOLT, T0, TAU_F, U0, W, XSC, j_of_E, mech_jacobian, mech_rhs)
 from .kinematics import front_slope, kin_eval, profile, zipping_angle
 
 # Gauss-Legendre rules of 2, 3, 4, 6 and 8 points, padded into one table
@@ -228,13 +228,7 @@ def jacobian_p1(cfg, geo, mat, law, lawp, V, F, y, f0, tri, Jeb, Jbe, Jbb, kin, 
     rhs_p1(cfg, geo, mat, law, lawp, V, F, ytmp, tmp, kin, False, tri, jbe, work)
     for i in range(nq):
         Jeb[i, 0] = (tmp[nbord + i] - f0[nbord + i]) / hx
-    Jbb[:, :] = 0.0
-    if nbord == 1:
-        Jbb[0, 0] = (tmp[0] - f0[0]) / hx
-    else:
-        Jbb[0, 1] = 1.0
-        Jbb[1, 0] = (tmp[1] - f0[1]) / hx
-        Jbb[1, 1] = -mat[B] / mat[MASS]
+    mech_jacobian(cfg, mat, tmp, f0, hx, Jbb)
     kin_eval(cfg[C_LAYOUT], geo, y[0], kin)
     return nbord - 1
 

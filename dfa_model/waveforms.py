@@ -130,8 +130,15 @@ def _square(duration, period, levels):
     return Piecewise(t, v[:n], np.zeros(n))
 
 
+class _Square(Waveform):
+    def __post_init__(self):
+        self.V = _finite("voltage", self.V)
+        self.frequency = _finite("frequency", self.frequency, 0.0, lo_incl=False, hi=1e6)
+        self.duty = _finite("duty", self.duty, 0.0, lo_incl=False, hi=1.0)
+
+
 @dataclass
-class Bipolar(Waveform):
+class Bipolar(_Square):
     """Polarity inversion: +V, -V square wave of `frequency` (full periods per second).
     `duty` is the fraction of each half period at full voltage (1.0: the paper's
     100 % duty cycle, no dead time); the rest of each half period is at 0 V."""
@@ -140,11 +147,6 @@ class Bipolar(Waveform):
     frequency: float
     duty: float = 1.0
 
-    def __post_init__(self):
-        self.V = _finite("voltage", self.V)
-        self.frequency = _finite("frequency", self.frequency, 0.0, lo_incl=False, hi=1e6)
-        self.duty = _finite("duty", self.duty, 0.0, lo_incl=False, hi=1.0)
-
     def piecewise(self, duration):
         d = self.duty
         return _square(duration, 1.0 / self.frequency,
@@ -152,17 +154,12 @@ class Bipolar(Waveform):
 
 
 @dataclass
-class Unipolar(Waveform):
+class Unipolar(_Square):
     """Unipolar pulse train: V for duty of each period, then 0 V."""
 
     V: float
     frequency: float
     duty: float = 0.5
-
-    def __post_init__(self):
-        self.V = _finite("voltage", self.V)
-        self.frequency = _finite("frequency", self.frequency, 0.0, lo_incl=False, hi=1e6)
-        self.duty = _finite("duty", self.duty, 0.0, lo_incl=False, hi=1.0)
 
     def piecewise(self, duration):
         return _square(duration, 1.0 / self.frequency, [(self.duty, self.V), (1 - self.duty, 0.0)])
