@@ -66,3 +66,23 @@ def test_console_script_runs():
     assert r.returncode == 0
     assert json.loads(r.stdout)["final_stroke"] == 0.0
     assert "did not zip" in r.stderr                   # a warning, not a failure
+
+
+def test_full_unzipping_warns_and_returns_a_result(vshape81):
+    import warnings as w
+
+    from dfa_model import PhysicsWarning, Protocol, simulate
+    with w.catch_warnings(record=True) as caught:
+        w.simplefilter("always", PhysicsWarning)
+        r = simulate(vshape81, Protocol.dc(6000, 20.0), load=9.0)        # 9 N: unzips within 20 s
+    assert any("fully unzipped" in str(c.message) for c in caught)
+    assert r.final_stroke == 0.0 and r.x.max() > 2e-4
+
+
+def test_every_step_output(tmp_path, capsys):
+    out = tmp_path / "s.csv"
+    rc = main(["simulate", "--preset", "vshape-table1", "--voltage", "6000", "--force", "5", "--duration", "2",
+               "--dt", "0", "--out", str(out)])
+    assert rc == 0
+    t = [float(ln.split(",")[0]) for ln in out.read_text().splitlines()[3:]]
+    assert 10 < len(t) < 500 and t[-1] == 2.0 and all(b > a for a, b in zip(t, t[1:]))
