@@ -204,7 +204,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         else:
             Vleft = seg_V0[sidx - 1] + seg_Vs[sidx - 1] * (ta - seg_t[sidx - 1])
         # a voltage jump moves charge instantly (continuum scheme): book its energy
-        if cfg[C_SCHEME] != 1 and V0 != Vleft:
+        if want_energy and cfg[C_SCHEME] != 1 and V0 != Vleft:
             rhs_any(cfg, geo, mat, law, lawp, Vleft, F0, y, f0, kin, work, tri, jbe)
             diagnostics(cfg, geo, mat, law, lawp, Vleft, 0.0, F0, y, f0, kin, work, row, P0)
             C = row[R_C]

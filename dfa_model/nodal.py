@@ -319,6 +319,7 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
     Emax = 0.0
     itau_l = 1.0 / (lawp[0] * eps_l) if const else 0.0
     itau_f = 1.0 / tau_f
+    ieps_l = 1.0 / eps_l
     for e in range(M):
         qa, qb = y[nbord + e], y[nbord + e + 1]
         qda, qdb = ydot[nbord + e], ydot[nbord + e + 1]
@@ -330,17 +331,20 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
             qd = qda * p0 + qdb * p1
             u = uu[k]
             A, sl, Jl, g, dg = _g(law, lawp, const, mat, V, qs, u, itau_l, itau_f)
+            iu = 1.0 / u
             sf = sl + qs
             Ad = eps_l * dVdt - t0 * qd
             wk = wt[k]
-            T += wk * A * A * dd[k] / (u * u)
-            I += wk * (Ad / u - A * v * D * dd[k] / (u * u) + Jl)
-            C += wk / u
-            U += wk * ((A * A + 2.0 * t0 * A * qs) / u + t0 * qs * qs)
+            wdu2 = wk * dd[k] * iu * iu
+            T += wdu2 * A * A
+            I += wk * (Ad * iu + Jl) - wdu2 * A * v * D
+            C += wk * iu
+            U += wk * ((A * A + 2.0 * t0 * A * qs) * iu + t0 * qs * qs)
             Q += wk * sf
-            PJ += wk * ((A / (eps_l * u)) * (u - t0) * Jl + t0 / eps_l * sf * sf / tau_f)
-            Pint += wk * t0 / eps_l * sf * (g - qd)
-            Emax = max(Emax, abs(A) / (eps_l * u))
+            # E_l t_l J_l = sigma_l (1 - T0/u) J_l / eps_l; 2 t_f E_f J_f = (T0/eps_l) sigma_f^2 / tau_f
+            PJ += wk * ieps_l * (sl * (1.0 - t0 * iu) * Jl + t0 * sf * sf * itau_f)
+            Pint += wk * t0 * ieps_l * sf * (g - qd)
+            Emax = max(Emax, abs(sl) * ieps_l)
     Fe = w / (2.0 * eps_l) * D * T
     rec[R_V] = v
     rec[R_LZ] = kin[0]
