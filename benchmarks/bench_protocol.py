@@ -147,7 +147,7 @@ def run_scipy(name, factory, method, budget, **kw):
     try:
         for k in range(len(ts) - 1):
             Vt = voltage_on(k)
-            sol = solve_ivp(lambda t, yy: rhs(t, yy, Vt), (ts[k], ts[k + 1]), y, method=method, rtol=1e-6,
+            sol = solve_ivp(lambda t, yy, Vt=Vt: rhs(t, yy, Vt), (ts[k], ts[k + 1]), y, method=method, rtol=1e-6,
                             atol=np.concatenate([[1e-9], np.full(n - 1, 1e-9)]))
             if not sol.success:
                 return f"failed ({sol.message})", time.perf_counter() - start, float("nan"), ts[k]

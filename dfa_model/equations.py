@@ -181,6 +181,15 @@ def mech_rhs(cfg, mat, F, y, Fe, ydot):
 
 
 @njit(cache=True)
+def stroke_velocity(cfg, y, ydot):
+    """dx/dt for the outputs: zero while resting on the stop at x = 0."""
+    v = ydot[0] if cfg[C_NBORD] == 1 else y[1]
+    if y[0] <= 0.0 and v < 0.0:
+        v = 0.0
+    return v
+
+
+@njit(cache=True)
 def rhs(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, work):
     """ydot = f(y) at voltage V and load F. Returns F_e (N, negative = zipping)."""
     nb, nbord, M = cfg[C_NB], cfg[C_NBORD], cfg[C_M]
@@ -332,9 +341,7 @@ def diagnostics(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, work, rec, P
     eps_l, T0v, u0, ds, w = mat[EPS_L], mat[T0], mat[U0], mat[DS], mat[W]
     kin_eval(layout, geo, y[0], kin)
     D = kin[1]
-    v = ydot[0] if nbord == 1 else y[1]
-    if y[0] <= 0.0 and v < 0.0:
-        v = 0.0            # resting on the stop at x = 0
+    v = stroke_velocity(cfg, y, ydot)
     I = 0.0
     C = 0.0
     U = 0.0

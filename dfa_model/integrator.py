@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from .equations import C_M, C_NB, C_NBORD, C_SCHEME, NPOW, NREC, R_C, R_EIN, R_T, R_X, XSC
-from .kernels import NODAL, diagnostics, factor, jacobian, solve
+from .kernels import diagnostics, factor, jacobian, solve
 from .nodal import NWORK
 from .kernels import rhs as rhs_any
 

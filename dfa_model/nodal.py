@@ -24,8 +24,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .equations import (B, C_LAYOUT, C_M, C_NBORD, DS, EPS_L, K, MASS, NPOW, QSC, R_ANG, R_C, R_EMAX,
-                        R_F, R_FE, R_I, R_LZ, R_Q, R_U, R_V, R_VOLT, T0, TAU_F, U0, W, XSC, j_of_E, mech_jacobian, mech_rhs)
+from .equations import (B, C_LAYOUT, C_M, C_NBORD, DS, EPS_L, K, MASS, R_ANG, R_C, R_EMAX,
+                        R_F, R_FE, R_I, R_LZ, R_Q, R_U, R_V, R_VOLT, T0, TAU_F, U0, W, XSC, j_of_E, mech_jacobian, mech_rhs,
+                        stroke_velocity)
 from .kinematics import front_slope, kin_eval, profile, zipping_angle
 
 # Gauss-Legendre rules of 2, 3, 4, 6 and 8 points, padded into one table
@@ -302,9 +303,7 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
     eps_l, t0, ds, w, tau_f = mat[EPS_L], mat[T0], mat[DS], mat[W], mat[TAU_F]
     kin_eval(layout, geo, y[0], kin)
     D = kin[1]
-    v = ydot[0] if nbord == 1 else y[1]
-    if y[0] <= 0.0 and v < 0.0:
-        v = 0.0
+    v = stroke_velocity(cfg, y, ydot)
     xi = work[0:NQMAX]
     wt = work[NQMAX:2 * NQMAX]
     uu = work[2 * NQMAX:3 * NQMAX]

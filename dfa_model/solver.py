@@ -12,7 +12,7 @@ from .integrator import MAX_STEPS, NONFINITE, OK, STEP_UNDERFLOW, integrate
 from .model import DFAModel
 from .parameters import Parameters
 from .results import Result
-from .waveforms import DC, Load, Protocol, WaveformError, merge
+from .waveforms import Load, Protocol, WaveformError, merge
 
 _STATUS = {MAX_STEPS: "the step limit was reached", STEP_UNDERFLOW: "the step size fell below 1e-14 s",
            NONFINITE: "the solution became non-finite"}

@@ -45,9 +45,6 @@ class Piecewise:
         i = np.clip(np.searchsorted(self.t, tq, side="right") - 1, 0, len(self.v0) - 1)
         return self.v0[i] + self.slope[i] * (tq - self.t[i])
 
-    def at_right(self, tq):
-        return self(tq)
-
     def shifted(self, dt):
         return Piecewise(self.t + dt, self.v0, self.slope)
 

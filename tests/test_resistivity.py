@@ -1,6 +1,5 @@
 """Resistivity laws: Eq. (21) against the paper's reported front resistivity, the
 floor, and user laws."""
-import warnings
 
 import numpy as np
 import pytest
@@ -53,4 +52,4 @@ def test_bad_user_law_is_reported():
             return -np.ones_like(E)
 
     with pytest.raises(ValueError, match="finite positive"):
-        Negative().params
+        _ = Negative().params
