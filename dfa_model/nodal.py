@@ -9,9 +9,11 @@ projection of J_l - J_f on the hat functions with a lumped (diagonal) mass:
     m_i dq_i/dt = int phi_i(s) [J_l(E_l(s)) - sigma_f(s)/tau_f] ds,
     sigma_l(s) = A(s)/u(s), A = eps_l V - T0 q(s), u = t_l + T0, sigma_f = sigma_l + q,
 
-and F_e = w/(2 eps_l) D int A^2 (dt_l/dp)/u^2 ds. Element integrals use 3-point
-Gauss-Legendre on the zipped part and graded 8-point Gauss in ln(s - l_z + c) on the
-unzipped part (exact static force to ~1e-12 relative for the V-shaped gap).
+and F_e = w/(2 eps_l) D int A^2 (dt_l/dp)/u^2 ds. Element integrals: closed form on
+fully zipped elements (constant law), 2-3 point Gauss-Legendre on zipped parts, Gauss in
+ln(s - l_z + c) graded towards the front where u varies strongly across the element, and
+plain 2-4 point Gauss where it varies little. The static force agrees with the
+closed-form integrals of the continuum-p0 scheme to 2e-8 relative for the V-shaped gap.
 
 The Jacobian in q is tridiagonal (analytic); with the stroke row and column it is a
 bordered tridiagonal system, solved in O(N) by the Thomas algorithm and a Schur
