@@ -6,12 +6,16 @@ retention at the film-liquid interface (Maxwell-Wagner-Sillars polarization).
     res = simulate(p, Protocol.reset_then_hold(6000, hold=20), load=5.0)
     res.unzipping_speed
 """
-from .dielectrics import ConstantResistivity, LinearResistivity, PhysicsWarning, ResistivityLaw
-from .model import DFAModel
-from .parameters import ParameterError, Parameters, load, preset
-from .results import Result
-from .solver import SolverError, simulate
-from .waveforms import DC, Bipolar, Load, Protocol, Sampled, Stage, Unipolar, WaveformError, from_function
+from ._jitcache import refresh as _refresh_jit_cache
+
+_refresh_jit_cache()
+
+from .dielectrics import ConstantResistivity, LinearResistivity, PhysicsWarning, ResistivityLaw  # noqa: E402
+from .model import DFAModel  # noqa: E402
+from .parameters import ParameterError, Parameters, load, preset  # noqa: E402
+from .results import Result  # noqa: E402
+from .solver import SolverError, simulate  # noqa: E402
+from .waveforms import DC, Bipolar, Load, Protocol, Sampled, Stage, Unipolar, WaveformError, from_function  # noqa: E402
 
 __all__ = ["ConstantResistivity", "LinearResistivity", "PhysicsWarning", "ResistivityLaw", "DFAModel",
            "ParameterError", "Parameters", "load", "preset", "Result", "SolverError", "simulate", "DC",

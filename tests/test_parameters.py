@@ -71,3 +71,26 @@ def test_bad_toml_file(tmp_path):
 
 def test_default_parameters_are_table1():
     assert Parameters() == preset("vshape-table1")
+
+
+def test_jit_cache_is_dropped_when_kernel_sources_change(tmp_path, monkeypatch):
+    """numba's cache ignores changes in inlined callees from other files; we hash them."""
+    import shutil
+
+    from dfa_model import _jitcache
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    for m in _jitcache.KERNEL_MODULES:
+        (pkg / f"{m}.py").write_text(f"# {m}\n")
+    shutil.copy(_jitcache.__file__, pkg / "_jitcache.py")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import importlib
+    jc = importlib.import_module("pkg._jitcache")
+    jc.refresh()
+    stale = pkg / "__pycache__" / "nodal.rhs_p1-1.py311.nbi"
+    stale.write_text("x")
+    jc.refresh()
+    assert stale.exists()                          # unchanged sources: cache kept
+    (pkg / "nodal.py").write_text("# changed\n")
+    jc.refresh()
+    assert not stale.exists()                      # a kernel source changed: cache dropped

@@ -1,0 +1,29 @@
+"""Keep numba's on-disk cache consistent with the kernel sources.
+
+numba keys a cached function on its own file only: a kernel that inlines a callee from
+another module keeps the old compiled code after that module changes. We hash all kernel
+sources and drop the package's cache files when the hash changes (before anything is
+compiled or loaded). Read-only installs are left alone.
+"""
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+KERNEL_MODULES = ("equations", "nodal", "kinematics", "integrator", "kernels", "dielectrics")
+
+
+def refresh() -> None:
+    here = Path(__file__).parent
+    try:
+        digest = hashlib.sha256(b"".join((here / f"{m}.py").read_bytes() for m in KERNEL_MODULES)).hexdigest()
+        cache = here / "__pycache__"
+        stamp = cache / "dfa_kernels.sha256"
+        if stamp.exists() and stamp.read_text() == digest:
+            return
+        for f in list(cache.glob("*.nbi")) + list(cache.glob("*.nbc")):
+            f.unlink()
+        cache.mkdir(exist_ok=True)
+        stamp.write_text(digest)
+    except OSError:
+        pass
