@@ -387,17 +387,17 @@ def diagnostics(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, work, rec, P
             PJ += ds * (t_l * sl / eps_l * Jl + T0v / eps_l * sf * sf / tau_f)
             Psrc += ds * mat[RHO_TS] * i * i
             Emax = max(Emax, abs(sl) / eps_l)
-    if cfg[C_SCHEME] == 0:
-        Pintra = w * Pint
-        C *= w * eps_l
-        U *= w / (2.0 * eps_l)
-    else:
-        Pintra = 0.0
-        C *= w * eps_l
-        U *= 0.5 * w
-    I *= w
-    Q *= w
-    Fe = w / (2.0 * eps_l) * D * T
+    # U was summed without its prefactor: w/(2 eps_l) (continuum-p0) or w/2 (paper)
+    U_scale = w / (2.0 * eps_l) if cfg[C_SCHEME] == 0 else 0.5 * w
+    write_outputs(layout, geo, mat, kin, y, v, V, F, D * T, w * I, w * eps_l * C, U_scale * U, w * Q, Emax,
+                  w * PJ, w * Pint, w * Psrc, rec, P)
+
+
+@njit(cache=True)
+def write_outputs(layout, geo, mat, kin, y, v, V, F, T, I, C, U, Q, Emax, PJ, Pint, Psrc, rec, P):
+    """Fill the output record and the powers from the (scaled) element sums; T is the
+    force sum times the lever D."""
+    Fe = mat[W] / (2.0 * mat[EPS_L]) * T
     rec[R_V] = v
     rec[R_LZ] = kin[0]
     rec[R_ANG] = zipping_angle(layout, geo, kin)
@@ -410,8 +410,8 @@ def diagnostics(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, work, rec, P
     rec[R_EMAX] = Emax
     rec[R_Q] = Q
     P[0] = V * I
-    P[1] = w * PJ
-    P[2] = Pintra
-    P[3] = w * Psrc
+    P[1] = PJ
+    P[2] = Pint
+    P[3] = Psrc
     P[4] = mat[B] * v * v
     P[5] = (F + mat[K] * y[0]) * v

@@ -255,7 +255,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             jac_fresh = False
             if not jac_ok:
                 jacobian(cfg, geo, mat, law, lawp, V0 + Vs * (t - ta), F0 + Fs * (t - ta), y, fbase,
-                         Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp)
+                         Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp, jbe)
                 if stuck >= 0:        # the stroke is held: its row decouples
                     Jbb[:, :] = 0.0
                     Jbe[:, :] = 0.0

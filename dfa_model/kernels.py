@@ -18,9 +18,9 @@ def rhs(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, work, tri, jbe):
 
 
 @njit(cache=True)
-def jacobian(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp):
+def jacobian(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp, jbe):
     if cfg[C_SCHEME] == NODAL:
-        return jacobian_p1(cfg, geo, mat, law, lawp, V, F, y, f0, tri, Jeb, Jbe, Jbb, kin, tmp, ytmp, work, Jbe[:, 0].copy())
+        return jacobian_p1(cfg, geo, mat, law, lawp, V, F, y, f0, tri, Jeb, Jbe, Jbb, kin, tmp, ytmp, work, jbe)
     return jac_blk(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, kin, work, tmp, ytmp)
 
 

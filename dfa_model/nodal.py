@@ -26,10 +26,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .equations import (B, C_LAYOUT, C_M, C_NBORD, DS, EPS_L, K, MASS, R_ANG, R_C, R_EMAX,
-                        R_F, R_FE, R_I, R_LZ, R_Q, R_U, R_V, R_VOLT, T0, TAU_F, U0, W, XSC, j_of_E, mech_jacobian, mech_rhs,
-                        stroke_velocity)
-from .kinematics import front_slope, kin_eval, profile, zipping_angle
+from .equations import (B, C_LAYOUT, C_M, C_NBORD, DS, EPS_L, MASS, T0, TAU_F, U0, W, XSC, j_of_E, mech_jacobian,
+                        mech_rhs, stroke_velocity, write_outputs)
+from .kinematics import front_slope, kin_eval, profile
 
 # Gauss-Legendre rules of 2, 3, 4, 6 and 8 points, padded into one table
 GN = np.array([2, 3, 4, 6, 8])
@@ -346,21 +345,5 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
             PJ += wk * ieps_l * (sl * (u - t0) * Jl + t0 * sf * sf * itau_f)
             Pint += wk * t0 * ieps_l * sf * (g - qd)
             Emax = max(Emax, abs(sl) * ieps_l)
-    Fe = w / (2.0 * eps_l) * D * T
-    rec[R_V] = v
-    rec[R_LZ] = kin[0]
-    rec[R_ANG] = zipping_angle(layout, geo, kin)
-    rec[R_FE] = -Fe
-    rec[R_I] = w * I
-    rec[R_C] = w * eps_l * C
-    rec[R_U] = w / (2.0 * eps_l) * U
-    rec[R_VOLT] = V
-    rec[R_F] = F
-    rec[R_EMAX] = Emax
-    rec[R_Q] = w * Q
-    P[0] = V * w * I
-    P[1] = w * PJ
-    P[2] = w * Pint
-    P[3] = 0.0
-    P[4] = mat[B] * v * v
-    P[5] = (F + mat[K] * y[0]) * v
+    write_outputs(layout, geo, mat, kin, y, v, V, F, D * T, w * I, w * eps_l * C, w / (2.0 * eps_l) * U, w * Q,
+                  Emax, w * PJ, w * Pint, 0.0, rec, P)

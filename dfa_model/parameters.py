@@ -288,12 +288,7 @@ def from_dict(data: dict, source: str = "parameters") -> Parameters:
         flat.setdefault("volume", None)
     else:
         flat.setdefault("a", None)
-    for key, value in flat.items():
-        if key in SPEC and value is not None:
-            spec = SPEC[key]
-            if spec.kind is not str:
-                _check_value(key, value, spec)
-    return Parameters(**flat)
+    return Parameters(**flat)        # __post_init__ validates every value
 
 
 def load(path) -> Parameters:
