@@ -128,7 +128,7 @@ def kin_eval(layout, geo, x, kin):
         kin[5] = -Pp                          # dl_z/dtheta
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def profile(layout, geo, kin, sigma):
     """Gap beyond the front at distance sigma = s - l_z: (t_l - t_lz, dt_l/dp at fixed s)."""
     if layout == V_SHAPED:
@@ -143,7 +143,7 @@ def profile(layout, geo, kin, sigma):
     return gap, dgap
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def front_slope(layout, kin):
     """dt_l/ds just beyond the front."""
     if layout == V_SHAPED:

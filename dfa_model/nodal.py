@@ -43,7 +43,7 @@ NQMAX = 11
 NWORK = 48    # scratch size for the kernels (>= 4 NQMAX)
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def elem_nodes(layout, const, geo, mat, kin, sa, sb, xi, wt, uu, dd):
     """Quadrature nodes of element [sa, sb]: local coordinate xi in [0, 1], weight
     (m), u = t_l + T0 and dt_l/dp. Returns the number of nodes."""
@@ -106,7 +106,7 @@ def elem_nodes(layout, const, geo, mat, kin, sa, sb, xi, wt, uu, dd):
     return n
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _g(law, lawp, const, mat, V, qs, u, itau_l, itau_f):
     """Pointwise J_l - J_f and its derivative with respect to q(s)."""
     eps_l, t0 = mat[EPS_L], mat[T0]
@@ -157,6 +157,7 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     c_lf = 0.0
     a0 = 0.0
     a1 = 0.0
+    epsV = mat[EPS_L] * V
     if const:
         c_lf = 1.0 / (lawp[0] * mat[EPS_L]) - 1.0 / mat[TAU_F]
         a0 = mat[EPS_L] * V * c_lf / mat[U0]
@@ -176,6 +177,20 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
         nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
         b0 = 0.0
         b1 = 0.0
+        if const and not jac:
+            # the hot path (constant law, no Jacobian): g = c_lf sigma_l - q / tau_f
+            dq = qb - qa
+            for k in range(nn):
+                p1 = xi[k]
+                qs = qa + dq * p1
+                sl = (epsV - t0 * qs) / uu[k]
+                wg = wt[k] * (c_lf * sl - qs * itau_f)
+                b1 += wg * p1
+                b0 += wg - wg * p1
+                T += wt[k] * dd[k] * sl * sl
+            ydot[nbord + e] += b0
+            ydot[nbord + e + 1] += b1
+            continue
         for k in range(nn):
             p1 = xi[k]
             p0 = 1.0 - p1
@@ -320,20 +335,26 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
     itau_l = 1.0 / (lawp[0] * eps_l) if const else 0.0
     itau_f = 1.0 / tau_f
     ieps_l = 1.0 / eps_l
+    epsV = eps_l * V
+    epsVd = eps_l * dVdt
     for e in range(M):
         qa, qb = y[nbord + e], y[nbord + e + 1]
         qda, qdb = ydot[nbord + e], ydot[nbord + e + 1]
+        dq, dqd = qb - qa, qdb - qda
         nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
         for k in range(nn):
             p1 = xi[k]
-            p0 = 1.0 - p1
-            qs = qa * p0 + qb * p1
-            qd = qda * p0 + qdb * p1
+            qs = qa + dq * p1
+            qd = qda + dqd * p1
             u = uu[k]
-            A, sl, Jl, g, dg = _g(law, lawp, const, mat, V, qs, u, itau_l, itau_f)
             iu = 1.0 / u
+            A = epsV - t0 * qs
+            sl = A * iu
+            # no derivative needed here, so the law is evaluated once (not via _g)
+            Jl = sl * itau_l if const else j_of_E(law, lawp, sl * ieps_l)
             sf = sl + qs
-            Ad = eps_l * dVdt - t0 * qd
+            g = Jl - sf * itau_f
+            Ad = epsVd - t0 * qd
             wk = wt[k]
             wdu2 = wk * dd[k] * iu * iu
             T += wdu2 * A * A
@@ -344,6 +365,7 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
             # E_l t_l J_l = sigma_l (u - T0) J_l / eps_l; 2 t_f E_f J_f = (T0/eps_l) sigma_f^2 / tau_f
             PJ += wk * ieps_l * (sl * (u - t0) * Jl + t0 * sf * sf * itau_f)
             Pint += wk * t0 * ieps_l * sf * (g - qd)
-            Emax = max(Emax, abs(sl) * ieps_l)
+            Emax = max(Emax, abs(sl))
+    Emax *= ieps_l
     write_outputs(layout, geo, mat, kin, y, v, V, F, D * T, w * I, w * eps_l * C, w / (2.0 * eps_l) * U, w * Q,
                   Emax, w * PJ, w * Pint, 0.0, rec, P)
