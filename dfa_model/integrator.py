@@ -36,6 +36,23 @@ NEWTON_TOL = 0.05
 MAXIT = 8
 
 OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE = 0, 1, 2, 3
+# carried controller state `ist` (see make_workspace): Jacobian valid, step of the stored
+# factorization, Newton contraction estimate, next step size, stuck index, f0 valid,
+# voltage and load that f0 and the Jacobian belong to
+I_JOK, I_HFACT, I_ETA, I_HN, I_STUCK, I_F0OK, I_V, I_F = 0, 1, 2, 3, 4, 5, 6, 7
+NIST = 8
+
+
+def make_workspace(n, ne, nb, h0):
+    """Integrator workspace that persists between calls to `integrate`: the Newton
+    matrix (Jacobian blocks and factorization), f at the current state, and the
+    controller state. A stepping caller (the FMU) keeps it, so consecutive calls
+    continue exactly like one call; copying it saves the complete solver state."""
+    ws = (np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, nb)), np.zeros((2, 2)),
+          np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3)), np.zeros(ne), np.zeros(ne),
+          np.zeros(ne), np.zeros((2, 2)), np.zeros(n))
+    ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0, 0.0])
+    return ws, ist
 
 
 @njit(cache=True)
@@ -125,14 +142,17 @@ def _attracting(cfg, geo, mat, law, lawp, V, F, y, xk, eps, tmp, ytmp, kin, work
 
 @njit(cache=True)
 def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_Fs, V_prev,
-              rtol, scale, h0, t_out, want_energy, store_states, max_steps, xc):
+              rtol, scale, t_out, want_energy, store_states, max_steps, xc, ws, ist):
     """Integrate from seg_t[0] to seg_t[-1]. Records every accepted step, or the times
     t_out if given (cubic Hermite dense output). Returns (rec, states, stats, y_end).
 
     xc: strokes where the force jumps (the paper scheme's midpoint crossings; empty
     otherwise). There the stroke equation has a discontinuous right-hand side and the
     equilibrium is a sliding point: the stroke sticks at a crossing while the force
-    pushes towards it from both sides and is released when it no longer does."""
+    pushes towards it from both sides and is released when it no longer does.
+
+    ws, ist: the persistent workspace and controller state (make_workspace), updated
+    in place. A breakpoint where neither input jumps keeps f and the Newton matrix."""
     n = y0.shape[0]
     M, nb = cfg[C_M], cfg[C_NB]
     nbord = cfg[C_NBORD]
@@ -154,18 +174,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     base = np.empty(n)
     kin = np.zeros(6)
     work = np.zeros(NWORK)
-    ne = M + 1          # rows: elements (block schemes) or nodes (nodal scheme)
-    Jee = np.zeros((ne, nb, nb))
-    Jeb = np.zeros((ne, nb))
-    Jbe = np.zeros((ne, nb))
-    Jbb = np.zeros((2, 2))
-    Winv = np.zeros((ne, nb, nb))
-    zeta = np.zeros((ne, nb))
-    tri = np.zeros((ne, 3))
-    jbe = np.zeros(ne)
-    cp = np.zeros(ne)
-    dinv = np.zeros(ne)
-    S = np.zeros((2, 2))
+    Jee, Jeb, Jbe, Jbb, Winv, zeta, tri, jbe, cp, dinv, S, fkeep = ws
     E = np.zeros(NPOW)
     Eold = np.zeros(NPOW)
     P0 = np.zeros(NPOW)
@@ -184,16 +193,16 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     grid = t_out.shape[0] > 0
     kout = 0
     nseg = seg_t.shape[0] - 1
-    jac_ok = False
-    h_fact = -1.0
-    eta = 1.0                     # Newton contraction estimate theta/(1 - theta)
+    jac_ok = ist[I_JOK] > 0.0
+    h_fact = ist[I_HFACT]
+    eta = ist[I_ETA]              # Newton contraction estimate theta/(1 - theta)
     fb = nbord - 1
-    stuck = -1                    # index into xc while sliding
+    stuck = int(ist[I_STUCK])     # index into xc while sliding
     sliding = xc.shape[0] > 0 and nbord == 1
     eps_x = 1e-9 * mat[XSC]
     t = seg_t[0]
-    hn = h0
-    h = h0
+    hn = ist[I_HN]
+    h = hn
     t_end = seg_t[nseg]
     hmin = 1e-14 * max(1.0, abs(t_end))
     for sidx in range(nseg):
@@ -201,8 +210,13 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         V0, Vs, F0, Fs = seg_V0[sidx], seg_Vs[sidx], seg_F0[sidx], seg_Fs[sidx]
         if sidx == 0:
             Vleft = V_prev
+            Fleft = ist[I_F] if ist[I_F0OK] > 0.0 else F0 + 1.0
         else:
             Vleft = seg_V0[sidx - 1] + seg_Vs[sidx - 1] * (ta - seg_t[sidx - 1])
+            Fleft = seg_F0[sidx - 1] + seg_Fs[sidx - 1] * (ta - seg_t[sidx - 1])
+        # no jump in either input: not an event for the solver state (a stepping caller
+        # passes the same input again); f and the Newton matrix carry on
+        smooth = V0 == Vleft and F0 == Fleft and Vs == 0.0 and Fs == 0.0 and ist[I_F0OK] > 0.0
         # a voltage jump moves charge instantly (continuum scheme): book its energy
         if want_energy and cfg[C_SCHEME] != 1 and V0 != Vleft:
             rhs_any(cfg, geo, mat, law, lawp, Vleft, F0, y, f0, kin, work, tri, jbe)
@@ -211,9 +225,15 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             dV = V0 - Vleft
             E[0] += V0 * C * dV
             E[3] += 0.5 * C * dV * dV
-        rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
-        nfev += 1
-        if jac_ok and sidx > 0 and V0 == -Vleft and V0 != 0.0 and seg_F0[sidx] == seg_F0[sidx - 1] + seg_Fs[sidx - 1] * (ta - seg_t[sidx - 1]):
+        if smooth:
+            for i in range(n):
+                f0[i] = fkeep[i]
+        else:
+            rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
+            nfev += 1
+        if smooth:
+            pass
+        elif jac_ok and V0 == -Vleft and V0 != 0.0 and F0 == Fleft:
             # polarity inversion: the q-x couplings scale with A = eps_l V - T0 q and
             # flip sign, the rest is unchanged for small q; a good Newton matrix for
             # free (Newton's convergence test still guards the result)
@@ -224,7 +244,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             h_fact = -1.0
         else:
             jac_ok = False
-        if stuck >= 0:
+        if stuck >= 0 and not smooth:
             if _attracting(cfg, geo, mat, law, lawp, V0, F0, y, xc[stuck], eps_x, tmp, ytmp, kin, work, tri, jbe):
                 f0[0] = 0.0
             else:
@@ -421,5 +441,16 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             hn = h * fac if h >= hn else max(hn, h * fac)
         if status != OK:
             break
+        # what the next call continues from (f0 belongs to V, F at the segment end)
+        for i in range(n):
+            fkeep[i] = f0[i]
+        ist[I_V] = V0 + Vs * (tb - ta)
+        ist[I_F] = F0 + Fs * (tb - ta)
+        ist[I_F0OK] = 1.0 if Vs == 0.0 and Fs == 0.0 else 0.0
+    ist[I_JOK] = 1.0 if jac_ok else 0.0
+    ist[I_HFACT] = h_fact
+    ist[I_ETA] = eta
+    ist[I_HN] = hn
+    ist[I_STUCK] = stuck
     stats = np.array([nsteps, nrej, nfev, njac, status, t], dtype=np.float64)
     return rec[:nrec].copy(), states[:nrec].copy() if store_states else states[:0].copy(), stats, y

@@ -12,6 +12,7 @@ from . import dielectrics, kinematics
 from .equations import (B, DS, EPS_F, EPS_L, K, MASS, NMAT, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F, TAU_L, U0,
                         W, XSC)
 from .kernels import NODAL, P0_SCHEME, PAPER, diagnostics, rhs
+from .integrator import make_workspace
 from .nodal import NWORK
 
 SCHEME_IDS = {"continuum": NODAL, "continuum-p0": P0_SCHEME, "paper": PAPER}
@@ -55,6 +56,10 @@ class DFAModel:
         y = np.zeros(self.n)
         y[0] = x0
         return y
+
+    def workspace(self, h0: float):
+        """Fresh integrator workspace and controller state (integrator.make_workspace)."""
+        return make_workspace(self.n, self.M + 1, self.nb, float(h0))
 
     def force_jumps(self) -> np.ndarray:
         """Strokes at which the force is discontinuous: the paper scheme's midpoint
