@@ -1,0 +1,268 @@
+"""Run through tests/test_fmu.py, in a separate process. The FMU: build, validation, fmpy simulation against the direct model, life cycle,
+state rollback, error paths, a C host, and loading a copy in a fresh process."""
+import os
+import shutil
+import subprocess
+import sys
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+fmpy = pytest.importorskip("fmpy")
+pytest.importorskip("pythonfmu")
+from fmpy.fmi1 import FMICallException  # noqa: E402
+from fmpy.fmi2 import FMU2Slave  # noqa: E402
+
+from dfa_model import PhysicsWarning, Protocol, preset, simulate  # noqa: E402
+from dfa_model.stepper import Stepper  # noqa: E402
+from dfa_model.waveforms import Sampled  # noqa: E402
+from fmu import build_fmu  # noqa: E402
+
+H = 1e-3
+
+
+@pytest.fixture(scope="module")
+def fmu_path(tmp_path_factory):
+    return build_fmu(preset("vshape-table1"), tmp_path_factory.mktemp("fmu") / "DFAActuator.fmu")
+
+
+@pytest.fixture(scope="module")
+def md(fmu_path):
+    return fmpy.read_model_description(str(fmu_path))
+
+
+@pytest.fixture(scope="module")
+def unzipped(fmu_path, tmp_path_factory):
+    return fmpy.extract(str(fmu_path), str(tmp_path_factory.mktemp("unz")))
+
+
+def vr(md):
+    return {v.name: v.valueReference for v in md.modelVariables}
+
+
+def slave(md, unzipped, name="a"):
+    s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName=name)
+    s.instantiate()
+    return s
+
+
+def bipolar(n, v=6000.0, period_steps=34):
+    return np.where((np.arange(n) // (period_steps // 2)) % 2 == 0, v, -v)
+
+
+def test_validates_and_documents(fmu_path, md):
+    assert fmpy.validation.validate_fmu(str(fmu_path)) == []
+    names = {v.name: v for v in md.modelVariables}
+    for out in ("stroke", "velocity", "zipped_length", "zipping_angle", "electrostatic_force", "current",
+                "capacitance", "stored_energy"):
+        assert names[out].causality == "output" and names[out].description
+    assert names["voltage"].causality == "input" and names["voltage"].unit == "V"
+    assert names["rho_l"].causality == "parameter" and names["rho_l"].variability == "fixed"
+    assert float(names["rho_l"].start) == preset("vshape-table1").rho_l and names["rho_l"].unit == "ohm m"
+    assert names["N"].type == "Integer" and names["scheme"].type == "String"
+    assert float(md.defaultExperiment.stopTime) == 23.0
+    with zipfile.ZipFile(fmu_path) as z:
+        assert "resources/dfa_params.toml" in z.namelist()
+
+
+def test_matches_direct_model(md, unzipped):
+    """Same sampled input (bipolar 30 Hz, then DC): stroke within 1e-6 of `simulate`."""
+    warnings.simplefilter("ignore", PhysicsWarning)
+    n = 600
+    V = np.concatenate([bipolar(300), np.full(n - 300, 6000.0)])
+    r = vr(md)
+    s = slave(md, unzipped)
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.setReal([r["v_nominal"]], [6000.0])
+    s.exitInitializationMode()
+    x = []
+    for k in range(n):
+        s.setReal([r["voltage"], r["force"]], [V[k], 5.0])
+        s.doStep(k * H, H)
+        x.append(s.getReal([r["stroke"]])[0])
+    s.terminate()
+    s.freeInstance()
+    t = np.arange(n + 1) * H
+    ref = simulate(preset("vshape-table1"), Protocol.single(Sampled(t[:-1], V, hold=True), n * H), 5.0,
+                   t_eval=t[1:])
+    assert np.max(ref.x) > 5e-4
+    assert np.max(np.abs(np.array(x) - ref.x)) <= 1e-6 * np.max(np.abs(ref.x))
+
+
+def test_state_rollback_is_bitwise(md, unzipped):
+    r = vr(md)
+    s = slave(md, unzipped)
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    outs = [r[k] for k in ("stroke", "current", "electrostatic_force", "stored_energy")]
+    for k in range(40):
+        s.setReal([r["voltage"], r["force"]], [6000.0 if k < 20 else -6000.0, 5.0])
+        s.doStep(k * H, H)
+    state = s.getFMUstate()
+    runs = []
+    for _ in range(2):
+        s.setFMUstate(state)
+        vals = []
+        for k in range(40, 60):
+            s.setReal([r["voltage"], r["force"]], [6000.0 if k < 50 else -6000.0, 4.0])
+            s.doStep(k * H, H)
+            vals.append(s.getReal(outs))
+        runs.append(np.array(vals))
+    assert np.array_equal(runs[0], runs[1])
+    assert runs[0][-1][0] > 0
+    s.freeFMUstate(state)
+    s.terminate()
+    s.freeInstance()
+
+
+def test_life_cycle_reset_and_two_instances(md, unzipped):
+    r = vr(md)
+    a, b = slave(md, unzipped, "a"), slave(md, unzipped, "b")
+    for s in (a, b):
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+    b.setReal([r["rho_l"]], [1e12])          # instances are independent
+    for s in (a, b):
+        s.exitInitializationMode()
+    xa, xb = [], []
+    for k in range(300):
+        for s, xs in ((a, xa), (b, xb)):
+            s.setReal([r["voltage"], r["force"]], [6000.0, 5.0])
+            s.doStep(k * H, H)
+        xa.append(a.getReal([r["stroke"]])[0])
+        xb.append(b.getReal([r["stroke"]])[0])
+    assert xa[-1] > 0 and xb[-1] > 0 and xa[-1] != xb[-1]
+    # reset: back to the start values, and the same trajectory again
+    a.reset()
+    a.setupExperiment(startTime=0.0)
+    a.enterInitializationMode()
+    a.exitInitializationMode()
+    assert a.getReal([r["stroke"]])[0] == 0.0
+    for k in range(300):
+        a.setReal([r["voltage"], r["force"]], [6000.0, 5.0])
+        a.doStep(k * H, H)
+    assert a.getReal([r["stroke"]])[0] == xa[-1]
+    for s in (a, b):
+        s.terminate()
+        s.freeInstance()
+
+
+def test_errors_are_fmi_status_not_crashes(md, unzipped):
+    """Bad parameter values and NaN inputs are refused through the FMI status, the host
+    survives. (pythonfmu 0.7 reports them as fmi2Fatal, after which FMI forbids further
+    calls but fmi2FreeInstance: see test_error_status_is_fmi2error.)"""
+    r = vr(md)
+    for vref, setter, value in ((r["rho_l"], "setReal", -1.0), (r["N"], "setInteger", 1)):
+        s = slave(md, unzipped)
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        with pytest.raises(FMICallException):
+            getattr(s, setter)([vref], [value])
+        s.freeInstance()
+    s = slave(md, unzipped)
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    s.setReal([r["voltage"]], [6000.0])
+    s.doStep(0.0, H)
+    assert np.isfinite(s.getReal([r["stroke"]])[0])
+    with pytest.raises(FMICallException):
+        s.setReal([r["voltage"]], [float("nan")])
+    s.freeInstance()
+
+
+@pytest.mark.xfail(strict=True, reason="known: pythonfmu 0.7 turns every Python exception into fmi2Fatal, "
+                   "not fmi2Error; the message is logged and the instance keeps working")
+def test_error_status_is_fmi2error(md, unzipped):
+    r = vr(md)
+    s = slave(md, unzipped)
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    try:
+        with pytest.raises(FMICallException) as exc:
+            s.setReal([r["rho_l"]], [-1.0])
+        assert exc.value.status == 3
+    finally:
+        s.freeInstance()
+
+
+def test_inconsistent_parameters_fail_initialization(md, unzipped):
+    r = vr(md)
+    s = slave(md, unzipped)
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.setReal([r["a"]], [0.06])                        # a > l: caught when the set is complete
+    with pytest.raises(FMICallException) as exc:
+        s.exitInitializationMode()
+    assert exc.value.status in (3, 4)
+    s.freeInstance()
+    s = slave(md, unzipped)                            # a bad string: reported at initialization
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.setString([r["scheme"]], ["bogus"])
+    with pytest.raises(FMICallException):
+        s.exitInitializationMode()
+    s.freeInstance()
+
+
+def test_copy_loads_in_fresh_process(fmu_path, tmp_path):
+    copy = tmp_path / "elsewhere" / "actuator.fmu"
+    copy.parent.mkdir()
+    shutil.copy(fmu_path, copy)
+    code = ("import fmpy, numpy as np\n"
+            f"r = fmpy.simulate_fmu({str(copy)!r}, stop_time=0.2, step_size=1e-3, output=['stroke'],\n"
+            "    start_values={'voltage': 6000.0, 'force': 5.0})\n"
+            "print(r['stroke'][-1])\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    x = float(out.stdout.split()[-1])
+    st = Stepper(preset("vshape-table1"), v_nominal=6000.0)
+    for _ in range(200):
+        st.step(H, 6000.0, 5.0)
+    assert abs(x - st.outputs["stroke"]) <= 1e-9 * abs(x)
+
+
+def _run_c_host(md, unzipped, tmp_path, nsteps=100):
+    exe = tmp_path / "fmu_host"
+    src = Path(__file__).with_name("fmu_host.c")
+    cc = subprocess.run(["gcc", "-O1", "-o", str(exe), str(src), "-ldl"], capture_output=True, text=True)
+    assert cc.returncode == 0, cc.stderr
+    so = Path(unzipped) / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+    r = vr(md)
+    uri = (Path(unzipped) / "resources").as_uri()
+    env = {k: v for k, v in os.environ.items() if k not in ("LD_PRELOAD", "LD_LIBRARY_PATH", "PYTHONPATH",
+                                                            "PYTHONHOME")}
+    return subprocess.run([str(exe), str(so), uri, md.guid, str(r["voltage"]), str(r["force"]), str(r["stroke"]),
+                           str(nsteps), str(H)], capture_output=True, text=True, timeout=600, env=env)
+
+
+needs_gcc = pytest.mark.skipif(not sys.platform.startswith("linux") or shutil.which("gcc") is None,
+                               reason="needs Linux and gcc")
+
+
+@needs_gcc
+def test_c_host_dlopen_rtld_now(md, unzipped, tmp_path):
+    """A C program dlopens the binary with RTLD_NOW (no libpython preloaded) and runs
+    instantiate, setup, initialize, 100 doSteps, getReal, terminate, free."""
+    out = _run_c_host(md, unzipped, tmp_path)
+    lines = out.stdout.split("\n")
+    assert lines[0].startswith("stroke") and lines[1] == "freed", out.stdout + out.stderr[-2000:]
+    x = float(lines[0].split()[1])
+    st = Stepper(preset("vshape-table1"), v_nominal=6000.0)
+    for _ in range(100):
+        st.step(H, 6000.0, 5.0)
+    assert x > 0 and abs(x - st.outputs["stroke"]) <= 1e-9 * x
+
+
+@needs_gcc
+@pytest.mark.xfail(strict=True, reason="known: after fmi2FreeInstance the C host aborts in its exit handlers "
+                   "(free() in SciPy's bundled libgfortran close_units, loaded because numba imports SciPy, "
+                   "after the embedded interpreter was finalized); see README, FMU known issues")
+def test_c_host_exits_cleanly(md, unzipped, tmp_path):
+    assert _run_c_host(md, unzipped, tmp_path, nsteps=5).returncode == 0
