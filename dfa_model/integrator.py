@@ -37,10 +37,9 @@ MAXIT = 8
 
 OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE = 0, 1, 2, 3
 # carried controller state `ist` (see make_workspace): Jacobian valid, step of the stored
-# factorization, Newton contraction estimate, next step size, stuck index, f0 valid,
-# voltage and load that f0 and the Jacobian belong to
-I_JOK, I_HFACT, I_ETA, I_HN, I_STUCK, I_F0OK, I_V, I_F = 0, 1, 2, 3, 4, 5, 6, 7
-NIST = 8
+# factorization, Newton contraction estimate, next step size, stuck index, f0 valid, and
+# the load at the end of the last call (its voltage is the caller's V_prev)
+I_JOK, I_HFACT, I_ETA, I_HN, I_STUCK, I_F0OK, I_F = 0, 1, 2, 3, 4, 5, 6
 
 
 def make_workspace(n, ne, nb, h0):
@@ -51,7 +50,7 @@ def make_workspace(n, ne, nb, h0):
     ws = (np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, nb)), np.zeros((2, 2)),
           np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3)), np.zeros(ne), np.zeros(ne),
           np.zeros(ne), np.zeros((2, 2)), np.zeros(n))
-    ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0, 0.0])
+    ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0])
     return ws, ist
 
 
@@ -210,7 +209,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         V0, Vs, F0, Fs = seg_V0[sidx], seg_Vs[sidx], seg_F0[sidx], seg_Fs[sidx]
         if sidx == 0:
             Vleft = V_prev
-            Fleft = ist[I_F] if ist[I_F0OK] > 0.0 else F0 + 1.0
+            Fleft = ist[I_F]      # only read once a call has written it (jac_ok or f0 valid)
         else:
             Vleft = seg_V0[sidx - 1] + seg_Vs[sidx - 1] * (ta - seg_t[sidx - 1])
             Fleft = seg_F0[sidx - 1] + seg_Fs[sidx - 1] * (ta - seg_t[sidx - 1])
@@ -231,24 +230,23 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         else:
             rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
             nfev += 1
-        if smooth:
-            pass
-        elif jac_ok and V0 == -Vleft and V0 != 0.0 and F0 == Fleft:
-            # polarity inversion: the q-x couplings scale with A = eps_l V - T0 q and
-            # flip sign, the rest is unchanged for small q; a good Newton matrix for
-            # free (Newton's convergence test still guards the result)
-            for i in range(Jeb.shape[0]):
-                for c in range(nb):
-                    Jeb[i, c] = -Jeb[i, c]
-                    Jbe[i, c] = -Jbe[i, c]
-            h_fact = -1.0
-        else:
-            jac_ok = False
-        if stuck >= 0 and not smooth:
-            if _attracting(cfg, geo, mat, law, lawp, V0, F0, y, xc[stuck], eps_x, tmp, ytmp, kin, work, tri, jbe):
-                f0[0] = 0.0
+            if jac_ok and V0 == -Vleft and V0 != 0.0 and F0 == Fleft:
+                # polarity inversion: the q-x couplings scale with A = eps_l V - T0 q and
+                # flip sign, the rest is unchanged for small q; a good Newton matrix for
+                # free (Newton's convergence test still guards the result)
+                for i in range(Jeb.shape[0]):
+                    for c in range(nb):
+                        Jeb[i, c] = -Jeb[i, c]
+                        Jbe[i, c] = -Jbe[i, c]
+                h_fact = -1.0
             else:
-                stuck = -1
+                jac_ok = False
+            if stuck >= 0:
+                if _attracting(cfg, geo, mat, law, lawp, V0, F0, y, xc[stuck], eps_x, tmp, ytmp, kin, work, tri,
+                               jbe):
+                    f0[0] = 0.0
+                else:
+                    stuck = -1
         if sidx == 0:
             if (not grid) or (kout < t_out.shape[0] and t_out[kout] <= t):
                 rec = _grow(rec, nrec)
@@ -444,7 +442,6 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         # what the next call continues from (f0 belongs to V, F at the segment end)
         for i in range(n):
             fkeep[i] = f0[i]
-        ist[I_V] = V0 + Vs * (tb - ta)
         ist[I_F] = F0 + Fs * (tb - ta)
         ist[I_F0OK] = 1.0 if Vs == 0.0 and Fs == 0.0 else 0.0
     ist[I_JOK] = 1.0 if jac_ok else 0.0

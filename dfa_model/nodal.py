@@ -160,7 +160,7 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     epsV = mat[EPS_L] * V
     if const:
         c_lf = 1.0 / (lawp[0] * mat[EPS_L]) - 1.0 / mat[TAU_F]
-        a0 = mat[EPS_L] * V * c_lf / mat[U0]
+        a0 = epsV * c_lf / mat[U0]
         a1 = -(t0 * c_lf / mat[U0] + 1.0 / mat[TAU_F])
     for e in range(M):
         qa = y[nbord + e]

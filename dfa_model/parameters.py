@@ -196,8 +196,7 @@ def _applies(p: Parameters, key: str) -> bool:
 
 def validate(p: Parameters) -> None:
     """Raise ParameterError naming the first bad key and its valid range."""
-    if p.layout not in LAYOUTS:
-        raise ParameterError(f"layout: got {p.layout!r}, expected one of {', '.join(map(repr, LAYOUTS))}")
+    check_value("layout", p.layout)
     for key, spec in SPEC.items():
         value = getattr(p, key)
         if value is None:
@@ -222,7 +221,12 @@ def validate(p: Parameters) -> None:
 
 
 def check_value(key: str, value, spec: Spec | None = None) -> None:
-    """Raise ParameterError if `value` is outside the range of parameter `key`."""
+    """Raise ParameterError if `value` is outside the range of parameter `key` (or
+    is not a layout, for key "layout")."""
+    if key == "layout":
+        if value not in LAYOUTS:
+            raise ParameterError(f"layout: got {value!r}, expected one of {', '.join(map(repr, LAYOUTS))}")
+        return
     spec = SPEC[key] if spec is None else spec
     if spec.choices:
         if value not in spec.choices:
@@ -268,8 +272,7 @@ def from_dict(data: dict, source: str = "parameters") -> Parameters:
     layout = data.pop("layout", None)
     if layout is None:
         raise ParameterError(f"layout: missing in {source}; expected one of {', '.join(map(repr, LAYOUTS))}")
-    if layout not in LAYOUTS:
-        raise ParameterError(f"layout: got {layout!r}, expected one of {', '.join(map(repr, LAYOUTS))}")
+    check_value("layout", layout)
     flat: dict = {"layout": layout}
     for table, content in data.items():
         if table not in TABLES:

@@ -44,7 +44,6 @@ class Stepper:
         self.max_steps = int(max_steps)
         self._scale = self.model.scales(v_nominal)
         self._xc = self.model.force_jumps()
-        self._empty = np.empty(0)
         self.n_steps = 0
         self.t = float(t0)
         self.y = self.model.initial_state(x0)

@@ -86,15 +86,13 @@ def _rewrite(raw: Path, out: Path, tmp: Path) -> None:
 
 
 def _fix_description(xml: bytes) -> bytes:
+    from .dfa_actuator import UNITS
     root = ET.fromstring(xml)
-    root.set("description", root.get("description", ""))
     units: dict[str, None] = {}
-    var_index: dict[str, int] = {}
     outputs: list[int] = []
     for i, sv in enumerate(root.find("ModelVariables"), start=1):
-        var_index[sv.get("name")] = i
         real = sv.find("Real")
-        unit = _unit_of(sv)
+        unit = UNITS.get(sv.get("name"), "")
         if real is not None and unit:
             real.set("unit", unit)
             units[unit] = None
@@ -120,15 +118,6 @@ def _fix_description(xml: bytes) -> bytes:
     ms.append(init)
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-
-
-def _unit_of(sv) -> str:
-    desc = sv.get("description") or ""
-    if desc.endswith("]") and "[" in desc:
-        return desc[desc.rindex("[") + 1:-1]
-    if "[" in desc:                      # parameter descriptions: "...[unit]; range"
-        return desc[desc.index("[") + 1:desc.index("]")]
-    return ""
 
 
 def libpython() -> Path:

@@ -76,6 +76,13 @@ EXTRA = {  # FMU-only parameters: not keys of the parameter file
     "x0": ("m", "initial stroke", 0.0),
     "v_nominal": ("V", "nominal voltage amplitude: sets the charge scale of the error control", 6000.0),
 }
+INPUT_INFO = {
+    "voltage": ("V", "voltage across the electrodes"),
+    "force": ("N", "external load force, opposing zipping"),
+}
+# the unit of every Real variable (build.py writes them into modelDescription.xml)
+UNITS = {**{k: u for k, (u, _) in INPUT_INFO.items()}, **{k: u for k, (u, _) in OUTPUT_INFO.items()},
+         **{k: s.unit for k, s in P.SPEC.items() if s.unit}, **{k: e[0] for k, e in EXTRA.items()}}
 
 
 class DFAActuator(Fmi2Slave):
@@ -89,19 +96,15 @@ class DFAActuator(Fmi2Slave):
         here = self.resources or os.path.dirname(os.path.abspath(__file__))
         path = os.path.join(here, PARAMS_FILE)
         base = P.load(path) if os.path.exists(path) else P.Parameters()
-        self._base = base
         self.voltage = 0.0
         self.force = 0.0
         for name in OUTPUTS:
             setattr(self, name, 0.0)
         self._stepper = None
         self._failed = False
-        self.register_variable(Real("voltage", causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
-                                    description="voltage across the electrodes [V]",
-                                    setter=lambda v: self._set_input("voltage", v)))
-        self.register_variable(Real("force", causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
-                                    description="external load force, opposing zipping [N]",
-                                    setter=lambda v: self._set_input("force", v)))
+        for name, (unit, text) in INPUT_INFO.items():
+            self.register_variable(Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
+                                        description=f"{text} [{unit}]", setter=self._input_setter(name)))
         for name, (unit, text) in OUTPUT_INFO.items():
             self.register_variable(Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
                                         initial=Fmi2Initial.calculated, description=f"{text} [{unit}]"))
@@ -110,7 +113,7 @@ class DFAActuator(Fmi2Slave):
         self.register_variable(String("layout", causality=Fmi2Causality.parameter,
                                       variability=Fmi2Variability.fixed, initial=Fmi2Initial.exact,
                                       description="layout: " + " or ".join(P.LAYOUTS),
-                                      setter=lambda v: self._set_param("layout", v)))
+                                      setter=self._param_setter("layout")))
         for key, spec in P.SPEC.items():
             value = getattr(base, key)
             if value is None:            # a / volume of the other layout: unused
@@ -132,6 +135,9 @@ class DFAActuator(Fmi2Slave):
     def _param_setter(self, key):
         return lambda v: self._set_param(key, v)
 
+    def _input_setter(self, name):
+        return lambda v: self._set_input(name, v)
+
     def _error(self, msg):
         self.log(msg, Fmi2Status.error)
         raise ValueError(msg)
@@ -144,11 +150,7 @@ class DFAActuator(Fmi2Slave):
             # log the problem now and fail fmi2ExitInitializationMode, which names the key
             setattr(self, key, value)
             try:
-                if key == "layout" and value not in P.LAYOUTS:
-                    raise P.ParameterError(f"layout: got {value!r}, expected one of "
-                                           f"{', '.join(map(repr, P.LAYOUTS))}")
-                if key != "layout":
-                    P.check_value(key, value)
+                P.check_value(key, value)
             except P.ParameterError as exc:
                 self.log(str(exc), Fmi2Status.error)
             return
@@ -207,9 +209,6 @@ class DFAActuator(Fmi2Slave):
         for name in OUTPUTS:
             setattr(self, name, row[name])
 
-    def terminate(self):
-        pass
-
     # ------------------------------------------------------------------ FMU state
     def _get_fmu_state(self):
         state = super()._get_fmu_state()
@@ -220,13 +219,11 @@ class DFAActuator(Fmi2Slave):
     def _set_fmu_state(self, state):
         state = dict(state)
         st, failed = state.pop("_stepper"), state.pop("_failed")
-        inited = self._stepper is not None
-        self._stepper, stepper_saved = None, self._stepper      # let parameter setters through
+        saved, self._stepper = self._stepper, None          # let parameter setters through
         super()._set_fmu_state(state)
-        if st is None:
-            self._stepper = None
-        else:
-            self._stepper = stepper_saved if inited else Stepper(self._parameters(), v_nominal=self.v_nominal,
-                                                                   x0=self.x0)
+        if st is not None:
+            if saved is None:
+                saved = Stepper(self._parameters(), v_nominal=self.v_nominal, x0=self.x0)
+            self._stepper = saved
             self._stepper.set_state(st)
         self._failed = failed

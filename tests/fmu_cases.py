@@ -50,6 +50,14 @@ def slave(md, unzipped, name="a"):
     return s
 
 
+def direct_stroke(nsteps, voltage=6000.0, force=5.0):
+    """Stroke after nsteps steps of H, computed by the model directly (no FMU)."""
+    st = Stepper(preset("vshape-table1"), v_nominal=6000.0)
+    for _ in range(nsteps):
+        st.step(H, voltage, force)
+    return st.outputs["stroke"]
+
+
 def bipolar(n, v=6000.0, period_steps=34):
     return np.where((np.arange(n) // (period_steps // 2)) % 2 == 0, v, -v)
 
@@ -222,10 +230,7 @@ def test_copy_loads_in_fresh_process(fmu_path, tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     x = float(out.stdout.split()[-1])
-    st = Stepper(preset("vshape-table1"), v_nominal=6000.0)
-    for _ in range(200):
-        st.step(H, 6000.0, 5.0)
-    assert abs(x - st.outputs["stroke"]) <= 1e-9 * abs(x)
+    assert abs(x - direct_stroke(200)) <= 1e-9 * abs(x)
 
 
 def _run_c_host(md, unzipped, tmp_path, nsteps=100):
@@ -254,10 +259,7 @@ def test_c_host_dlopen_rtld_now(md, unzipped, tmp_path):
     lines = out.stdout.split("\n")
     assert lines[0].startswith("stroke") and lines[1] == "freed", out.stdout + out.stderr[-2000:]
     x = float(lines[0].split()[1])
-    st = Stepper(preset("vshape-table1"), v_nominal=6000.0)
-    for _ in range(100):
-        st.step(H, 6000.0, 5.0)
-    assert x > 0 and abs(x - st.outputs["stroke"]) <= 1e-9 * x
+    assert x > 0 and abs(x - direct_stroke(100)) <= 1e-9 * x
 
 
 @needs_gcc
