@@ -46,10 +46,12 @@ def make_workspace(n, ne, nb, h0):
     """Integrator workspace that persists between calls to `integrate`: the Newton
     matrix (Jacobian blocks and factorization), f at the current state, and the
     controller state. A stepping caller (the FMU) keeps it, so consecutive calls
-    continue exactly like one call; copying it saves the complete solver state."""
+    continue exactly like one call; copying it saves the complete solver state.
+    The last two arrays are f at the current state and the stage value of the last
+    accepted step (with its end values, it defines the step's dense output)."""
     ws = (np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, nb)), np.zeros((2, 2)),
           np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3)), np.zeros(ne), np.zeros(ne),
-          np.zeros(ne), np.zeros((2, 2)), np.zeros(n))
+          np.zeros(ne), np.zeros((2, 2)), np.zeros(n), np.zeros(n))
     ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0])
     return ws, ist
 
@@ -84,6 +86,30 @@ def _record(cfg, geo, mat, law, lawp, t, V, dVdt, F, y, ydot, E, kin, work, row,
     row[R_X] = y[0]
     for i in range(NPOW):
         row[R_EIN + i] = E[i]
+
+
+@njit(cache=True)
+def _dense_record(cfg, geo, mat, law, lawp, t, h, to, y, z1, z2, V, Vs, F, E, yi, ydi, kin, work, row, P):
+    """Record the outputs at time `to` in the step [t, t + h]: the quadratic through the
+    step's values y (at t), z1 (stage, t + gamma h) and z2 (t + h). Values only: a
+    Hermite cubic would carry the fast modes' start slopes, h f, across a long stiff
+    step and overshoot between the ends."""
+    n = y.shape[0]
+    s = min(1.0, max(0.0, (to - t) / h))
+    g = GAMMA
+    l0 = (s - g) * (s - 1.0) / g
+    l1 = s * (s - 1.0) / (g * (g - 1.0))
+    l2 = s * (s - g) / (1.0 - g)
+    d0 = (2.0 * s - g - 1.0) / (g * h)
+    d1 = (2.0 * s - 1.0) / (g * (g - 1.0) * h)
+    d2 = (2.0 * s - g) / ((1.0 - g) * h)
+    for i in range(n):
+        yi[i] = l0 * y[i] + l1 * z1[i] + l2 * z2[i]
+        ydi[i] = d0 * y[i] + d1 * z1[i] + d2 * z2[i]
+    if yi[0] < 0.0:     # overshoot below the stop
+        yi[0] = 0.0
+    _record(cfg, geo, mat, law, lawp, to, V, Vs, F, yi, ydi, E, kin, work, row, P)
+    return s
 
 
 @njit(cache=True)
@@ -141,7 +167,7 @@ def _attracting(cfg, geo, mat, law, lawp, V, F, y, xk, eps, tmp, ytmp, kin, work
 
 @njit(cache=True)
 def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_Fs, V_prev,
-              rtol, scale, t_out, want_energy, store_states, max_steps, xc, ws, ist):
+              rtol, scale, t_out, want_energy, store_states, max_steps, xc, ws, ist, one_step):
     """Integrate from seg_t[0] to seg_t[-1]. Records every accepted step, or the times
     t_out if given (cubic Hermite dense output). Returns (rec, states, stats, y_end).
 
@@ -151,7 +177,10 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     pushes towards it from both sides and is released when it no longer does.
 
     ws, ist: the persistent workspace and controller state (make_workspace), updated
-    in place. A breakpoint where neither input jumps keeps f and the Newton matrix."""
+    in place. A breakpoint where neither input jumps keeps f and the Newton matrix.
+    one_step: return after the first accepted step, recording its start, stage and end
+    (a stepping caller interpolates its communication points there, see
+    dfa_model.stepper)."""
     n = y0.shape[0]
     M, nb = cfg[C_M], cfg[C_NB]
     nbord = cfg[C_NBORD]
@@ -173,7 +202,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     base = np.empty(n)
     kin = np.zeros(6)
     work = np.zeros(NWORK)
-    Jee, Jeb, Jbe, Jbb, Winv, zeta, tri, jbe, cp, dinv, S, fkeep = ws
+    Jee, Jeb, Jbe, Jbb, Winv, zeta, tri, jbe, cp, dinv, S, fkeep, zg = ws
     E = np.zeros(NPOW)
     Eold = np.zeros(NPOW)
     P0 = np.zeros(NPOW)
@@ -181,7 +210,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     P2 = np.zeros(NPOW)
     row = np.zeros(NREC)
     Eint = np.zeros(NPOW)
-    rec = np.zeros((1024, NREC))
+    rec = np.zeros((min(1024, t_out.shape[0] + 2) if t_out.shape[0] > 0 else (8 if one_step else 1024), NREC))
     states = np.zeros((1024 if store_states else 1, n))
     nrec = 0
     nfev = 0
@@ -189,6 +218,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     nsteps = 0
     nrej = 0
     status = OK
+    done = False
     grid = t_out.shape[0] > 0
     kout = 0
     nseg = seg_t.shape[0] - 1
@@ -247,7 +277,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     f0[0] = 0.0
                 else:
                     stuck = -1
-        if sidx == 0:
+        if sidx == 0 and not one_step:
             if (not grid) or (kout < t_out.shape[0] and t_out[kout] <= t):
                 rec = _grow(rec, nrec)
                 _record(cfg, geo, mat, law, lawp, t, V0, Vs, F0, y, f0, E, kin, work, rec[nrec], P0)
@@ -259,7 +289,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     kout += 1
         if want_energy:
             diagnostics(cfg, geo, mat, law, lawp, V0, Vs, F0, y, f0, kin, work, row, P0)
-        while t < tb and status == OK:
+        while t < tb and status == OK and not done:
             # hn is the step the controller wants; h the one taken (clipped to land on tb)
             h = hn
             if tb - t <= h * (1.0 + 1e-9) or tb - t < 2.0 * hmin:
@@ -396,27 +426,23 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 for i in range(NPOW):
                     E[i] += h * (WTR * (P0[i] + P1[i]) + DG * P2[i])
                 P0[:] = P2
+            if one_step:
+                # the step's three nodes (start, stage, end): the caller interpolates them
+                rec = _grow(rec, nrec + 2)
+                _record(cfg, geo, mat, law, lawp, t, V0 + Vs * (t - ta), Vs, F0 + Fs * (t - ta), y, f0, E, kin, work,
+                        rec[nrec], P1)
+                _record(cfg, geo, mat, law, lawp, tg, Vg, Vs, Fg, z1, f1, E, kin, work, rec[nrec + 1], P1)
+                _record(cfg, geo, mat, law, lawp, t + h, V2, Vs, F2, z2, f2, E, kin, work, rec[nrec + 2], P1)
+                nrec += 3
             if grid:
                 while kout < t_out.shape[0] and t_out[kout] <= t + h * (1.0 + 1e-12):
-                    s = min(1.0, max(0.0, (t_out[kout] - t) / h))
-                    s2 = s * s
-                    s3 = s2 * s
-                    h00 = 2 * s3 - 3 * s2 + 1
-                    h10 = s3 - 2 * s2 + s
-                    h01 = -2 * s3 + 3 * s2
-                    h11 = s3 - s2
-                    for i in range(n):
-                        yi[i] = h00 * y[i] + h10 * h * f0[i] + h01 * z2[i] + h11 * h * f2[i]
-                        ydi[i] = ((6 * s2 - 6 * s) * (y[i] - z2[i]) / h + (3 * s2 - 4 * s + 1) * f0[i]
-                                  + (3 * s2 - 2 * s) * f2[i])
-                    if yi[0] < 0.0:     # cubic overshoot below the stop
-                        yi[0] = 0.0
                     to = t_out[kout]
+                    s = min(1.0, max(0.0, (to - t) / h))
                     for i in range(NPOW):
                         Eint[i] = Eold[i] + s * (E[i] - Eold[i]) if want_energy else 0.0
                     rec = _grow(rec, nrec)
-                    _record(cfg, geo, mat, law, lawp, to, V0 + Vs * (to - ta), Vs, F0 + Fs * (to - ta),
-                            yi, ydi, Eint, kin, work, rec[nrec], P1)
+                    _dense_record(cfg, geo, mat, law, lawp, t, h, to, y, z1, z2, V0 + Vs * (to - ta), Vs,
+                                 F0 + Fs * (to - ta), Eint, yi, ydi, kin, work, rec[nrec], P1)
                     if store_states:
                         states = _grow(states, nrec)
                         states[nrec, :] = yi
@@ -426,9 +452,10 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             if tb - t < 2.0 * hmin:
                 t = tb
             for i in range(n):
+                zg[i] = z1[i]
                 y[i] = z2[i]
                 f0[i] = f2[i]
-            if not grid:
+            if not grid and not one_step:
                 rec = _grow(rec, nrec)
                 _record(cfg, geo, mat, law, lawp, t, V2, Vs, F2, y, f0, E, kin, work, rec[nrec], P1)
                 if store_states:
@@ -437,13 +464,17 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 nrec += 1
             fac = min(5.0, max(0.2, 0.9 * en ** (-1.0 / 3.0) if en > 0 else 5.0))
             hn = h * fac if h >= hn else max(hn, h * fac)
+            if one_step:
+                done = True
         if status != OK:
             break
         # what the next call continues from (f0 belongs to V, F at the segment end)
         for i in range(n):
             fkeep[i] = f0[i]
-        ist[I_F] = F0 + Fs * (tb - ta)
+        ist[I_F] = F0 + Fs * (t - ta)
         ist[I_F0OK] = 1.0 if Vs == 0.0 and Fs == 0.0 else 0.0
+        if done:
+            break
     ist[I_JOK] = 1.0 if jac_ok else 0.0
     ist[I_HFACT] = h_fact
     ist[I_ETA] = eta

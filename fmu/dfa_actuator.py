@@ -2,12 +2,12 @@
 
 This file is copied into the FMU's resources by `dfa fmu build`, with the parameter file
 the FMU was built from (dfa_params.toml). It imports the installed `dfa_model`: the FMU
-runs the same code as `dfa simulate`.
+runs the same code as `dfa simulate`. The FMU's binary is fmu/c/fmi2_python.c.
 
 Inputs (held between communication points; a change is a jump at the step start):
 voltage (V), force (N, opposing zipping). Errors (bad parameters, NaN inputs, solver
-failure) are logged and returned as fmi2Error; the master may roll back with
-fmi2SetFMUstate.
+failure) are raised here; the binary logs the message and returns fmi2Error, and the
+master may roll back with fmi2SetFMUstate or reset.
 """
 import os
 import sys
@@ -15,35 +15,6 @@ import sys
 _here = os.path.dirname(os.path.abspath(__file__))
 
 
-def _promote_libpython():
-    """In a C host, libpython arrives as a NEEDED library of the FMU binary, loaded
-    RTLD_LOCAL: extension modules (math, NumPy) then cannot resolve its symbols. Loading
-    it once more with RTLD_GLOBAL promotes it. This runs before any extension module is
-    imported, so it may use builtins only: _imp.create_dynamic dlopens with the current
-    flags and then fails to find an init function, which is expected."""
-    path_file = os.path.join(_here, "dfa_libpython.txt")
-    if not os.path.exists(path_file):
-        return
-    path = open(path_file).read().strip()
-    if not os.path.exists(path):
-        return
-    import _imp
-
-    class Spec:
-        name = "_dfa_libpython_global"
-        origin = path
-
-    flags = sys.getdlopenflags()
-    sys.setdlopenflags(os.RTLD_NOW | os.RTLD_GLOBAL)
-    try:
-        _imp.create_dynamic(Spec())
-    except ImportError:
-        pass
-    finally:
-        sys.setdlopenflags(flags)
-
-
-_promote_libpython()
 if os.path.exists(os.path.join(_here, "dfa_sys_path.txt")):
     # the build's site-packages (a C host embeds the base interpreter, not a venv)
     for _p in open(os.path.join(_here, "dfa_sys_path.txt")).read().split():
@@ -51,10 +22,13 @@ if os.path.exists(os.path.join(_here, "dfa_sys_path.txt")):
             sys.path.append(_p)
 
 import math  # noqa: E402
+import pickle  # noqa: E402
 
-from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
+import numpy as np  # noqa: E402
+
+from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Variability
 from pythonfmu.fmi2slave import Fmi2Slave
-from pythonfmu.variables import Integer, Real, String
+from pythonfmu.variables import Boolean, Integer, Real, String
 from pythonfmu.default_experiment import DefaultExperiment
 
 from dfa_model import parameters as P
@@ -72,6 +46,8 @@ OUTPUT_INFO = {
     "capacitance": ("F", "capacitance of the actuator"),
     "stored_energy": ("J", "electrostatic energy stored in the actuator"),
 }
+# the Real variables the binary reads and writes directly (see fmi2_python.c)
+FAST = ("voltage", "force", *OUTPUTS)
 EXTRA = {  # FMU-only parameters: not keys of the parameter file
     "x0": ("m", "initial stroke", 0.0),
     "v_nominal": ("V", "nominal voltage amplitude: sets the charge scale of the error control", 6000.0),
@@ -96,10 +72,9 @@ class DFAActuator(Fmi2Slave):
         here = self.resources or os.path.dirname(os.path.abspath(__file__))
         path = os.path.join(here, PARAMS_FILE)
         base = P.load(path) if os.path.exists(path) else P.Parameters()
-        self.voltage = 0.0
-        self.force = 0.0
-        for name in OUTPUTS:
-            setattr(self, name, 0.0)
+        self._c_real_buf = np.zeros(len(FAST))      # voltage, force, outputs (properties below)
+        self.land_on_communication_points = True
+        self._start_time, self._stop_time = 0.0, None
         self._stepper = None
         self._failed = False
         for name, (unit, text) in INPUT_INFO.items():
@@ -125,6 +100,14 @@ class DFAActuator(Fmi2Slave):
                                         initial=Fmi2Initial.exact,
                                         description=f"{spec.table}: {spec.description}{unit}; {spec.range_text()}",
                                         setter=self._param_setter(key)))
+        self.register_variable(Boolean(
+            "land_on_communication_points", causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+            initial=Fmi2Initial.exact, setter=self._param_setter("land_on_communication_points"),
+            description="true: every communication point ends a solver step (the trajectory of dfa simulate on the "
+                        "same sampled input); false: the solver steps across communication points while the inputs "
+                        "stay the same and interpolates there (same error control; much faster at small steps)"))
+        vr = {v.name: v.value_reference for v in self.vars.values()}
+        self._c_real_vrs = tuple(vr[name] for name in FAST)
         for key, (unit, text, start) in EXTRA.items():
             setattr(self, key, start)
             self.register_variable(Real(key, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
@@ -139,23 +122,15 @@ class DFAActuator(Fmi2Slave):
         return lambda v: self._set_input(name, v)
 
     def _error(self, msg):
-        self.log(msg, Fmi2Status.error)
-        raise ValueError(msg)
+        raise ValueError(msg)       # the binary logs it and returns fmi2Error
 
     def _set_param(self, key, value):
         if self._stepper is not None:
             self._error(f"{key}: parameters are fixed after initialization (reset the FMU to change them)")
-        if key == "layout" or (key in P.SPEC and P.SPEC[key].kind is str):
-            # pythonfmu 0.7 crashes the host if a String setter raises: take the value,
-            # log the problem now and fail fmi2ExitInitializationMode, which names the key
-            setattr(self, key, value)
-            try:
-                P.check_value(key, value)
-            except P.ParameterError as exc:
-                self.log(str(exc), Fmi2Status.error)
-            return
         try:
-            if key in EXTRA:
+            if key == "land_on_communication_points":
+                value = bool(value)
+            elif key in EXTRA:
                 if not math.isfinite(value) or value < 0 or (key == "v_nominal" and value <= 0):
                     raise P.ParameterError(f"{key}: got {value!r}, expected a finite number "
                                            f"{'> 0' if key == 'v_nominal' else '>= 0'} ({EXTRA[key][0]})")
@@ -181,10 +156,18 @@ class DFAActuator(Fmi2Slave):
             flat["a"] = None
         return P.Parameters(**flat)
 
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        self._start_time = float(start_time)
+        self._stop_time = None if stop_time is None else float(stop_time)
+
+    def _new_stepper(self):
+        stop = self._stop_time if self._stop_time is not None and self._stop_time > self._start_time else None
+        return Stepper(self._parameters(), v_nominal=self.v_nominal, x0=self.x0, t0=self._start_time, t_end=stop,
+                       exact=self.land_on_communication_points)
+
     def exit_initialization_mode(self):
         try:
-            params = self._parameters()
-            self._stepper = Stepper(params, v_nominal=self.v_nominal, x0=self.x0)
+            self._stepper = self._new_stepper()
         except (P.ParameterError, ValueError) as exc:
             self._error(f"initialization failed: {exc}")
         self._publish()
@@ -195,9 +178,13 @@ class DFAActuator(Fmi2Slave):
             self._error("doStep called before initialization")
         if self._failed:
             self._error("the solver failed at an earlier step; restore a saved state or reset")
+        if abs(current_time - st.t) > 1e-9 * max(1.0, abs(st.t)):
+            self._error(f"doStep: currentCommunicationPoint = {current_time!r} s, expected the end of the previous "
+                        f"step, {st.t!r} s")
         st.t = current_time          # the master's clock is the reference
+        buf = self._c_real_buf
         try:
-            st.step(step_size, self.voltage, self.force)
+            st.step(step_size, buf[0], buf[1])
         except Exception as exc:     # SolverError, ValueError: reported, never a crash
             self._failed = True
             self._error(f"doStep at t = {current_time:g} s: {exc}")
@@ -205,11 +192,18 @@ class DFAActuator(Fmi2Slave):
         return True
 
     def _publish(self):
-        row = self._stepper.outputs
-        for name in OUTPUTS:
-            setattr(self, name, row[name])
+        self._c_real_buf[2:] = self._stepper.out
 
     # ------------------------------------------------------------------ FMU state
+    # the state holds NumPy arrays: pickle, not pythonfmu's JSON
+    @staticmethod
+    def _fmu_state_to_bytes(state):
+        return pickle.dumps(state)
+
+    @staticmethod
+    def _fmu_state_from_bytes(data):
+        return pickle.loads(data)
+
     def _get_fmu_state(self):
         state = super()._get_fmu_state()
         state["_stepper"] = None if self._stepper is None else self._stepper.get_state()
@@ -223,7 +217,20 @@ class DFAActuator(Fmi2Slave):
         super()._set_fmu_state(state)
         if st is not None:
             if saved is None:
-                saved = Stepper(self._parameters(), v_nominal=self.v_nominal, x0=self.x0)
+                saved = self._new_stepper()
             self._stepper = saved
             self._stepper.set_state(st)
         self._failed = failed
+
+
+def _buffered(i):
+    def get(self):
+        return float(self._c_real_buf[i])
+
+    def put(self, value):
+        self._c_real_buf[i] = value
+    return property(get, put)
+
+
+for _i, _name in enumerate(FAST):
+    setattr(DFAActuator, _name, _buffered(_i))
