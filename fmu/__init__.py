@@ -1,4 +1,5 @@
-"""The DFA model as an FMI 2.0 co-simulation FMU (pythonfmu): see build.build_fmu."""
-from .build import BuildError, build_fmu
+"""The DFA model as an FMI 2.0 co-simulation FMU (pythonfmu + fmu/c/fmi2_python.c):
+see build.build_fmu; cosim runs it with the drive-electronics and load companions."""
+from .build import BuildError, build_companion_fmu, build_fmu
 
-__all__ = ["BuildError", "build_fmu"]
+__all__ = ["BuildError", "build_companion_fmu", "build_fmu"]

@@ -36,12 +36,42 @@ class BuildError(RuntimeError):
 
 
 def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAActuator.fmu") -> Path:
-    """Build the FMU for `params` (default: the Table 1 preset) and return its path."""
+    """Build the actuator FMU for `params` (default: the Table 1 preset); returns its path."""
+    params = P.preset("vshape-table1") if params is None else params
+    with tempfile.TemporaryDirectory(prefix="dfa_fmu_") as tmp:
+        src = Path(tmp) / "files"
+        src.mkdir()
+        params.save(src / "dfa_params.toml")
+        # where this Python finds dfa_model and its dependencies: a C host embeds the
+        # base interpreter, which does not know a virtual environment's site-packages
+        paths = [str(Path(P.__file__).resolve().parents[1]), sysconfig.get_path("purelib"),
+                 sysconfig.get_path("platlib")]
+        (src / "dfa_sys_path.txt").write_text("\n".join(dict.fromkeys(paths)) + "\n")
+        from .dfa_actuator import UNITS
+        return _package(SLAVE, MODEL_IDENTIFIER, out, list(src.iterdir()), units=UNITS, serialize=True,
+                        canGetAndSetFMUstate=True)
+
+
+# the co-simulation example's companions: script, slave class
+COMPANIONS = {"drive": (HERE / "drive_electronics.py", "DriveElectronics"),
+              "load": (HERE / "mass_spring_load.py", "MassSpringLoad")}
+
+
+def build_companion_fmu(kind: str, out: str | os.PathLike) -> Path:
+    """Build the drive-electronics ("drive") or mass-spring load ("load") FMU."""
+    if kind not in COMPANIONS:
+        raise BuildError(f"kind: got {kind!r}, expected one of {', '.join(COMPANIONS)}")
+    script, cls = COMPANIONS[kind]
+    return _package(script, cls, out, [])
+
+
+def _package(script: Path, cls: str, out, project_files, units=None, serialize=False, **flags) -> Path:
+    """pythonfmu packs the slave; _rewrite fixes the description and adds our binary.
+    units: name -> unit (default: the "[unit]" ending each description)."""
     try:
         from pythonfmu import FmuBuilder
     except ImportError:
         raise BuildError("pythonfmu is not installed: pip install 'dfa-toolkit[fmu]'") from None
-    params = P.preset("vshape-table1") if params is None else params
     out = Path(out)
     if out.suffix != ".fmu":
         raise BuildError(f"--out: expected a file name ending in .fmu, got {str(out)!r}")
@@ -50,27 +80,19 @@ def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAA
         tmp = Path(tmp)
         src = tmp / "src"
         src.mkdir()
-        shutil.copy2(SLAVE, src / SLAVE.name)
-        params.save(src / "dfa_params.toml")
-        # where this Python finds dfa_model and its dependencies: a C host embeds the
-        # base interpreter, which does not know a virtual environment's site-packages
-        paths = [str(Path(P.__file__).resolve().parents[1]), sysconfig.get_path("purelib"),
-                 sysconfig.get_path("platlib")]
-        (src / "dfa_sys_path.txt").write_text("\n".join(dict.fromkeys(paths)) + "\n")
-        raw = FmuBuilder.build_FMU(src / SLAVE.name, dest=tmp / f"{MODEL_IDENTIFIER}.fmu",
-                                   project_files=[f for f in src.iterdir() if f.name != SLAVE.name],
-                                   canGetAndSetFMUstate=True,
-                                   needsExecutionTool=True)
-        _rewrite(Path(raw), out, tmp)
+        shutil.copy2(script, src / script.name)
+        raw = FmuBuilder.build_FMU(src / script.name, dest=tmp / f"{cls}.fmu", project_files=project_files,
+                                   needsExecutionTool=True, **flags)
+        _rewrite(Path(raw), out, tmp, cls, units, serialize)
     return out
 
 
-def _rewrite(raw: Path, out: Path, tmp: Path) -> None:
+def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize) -> None:
     with zipfile.ZipFile(raw) as zin:
         entries = {name: zin.read(name) for name in zin.namelist() if not name.startswith("binaries/")}
-    entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"])
-    entries["resources/slaveclass.txt"] = b"DFAActuator\n"
-    entries[f"binaries/{_platform()}/{MODEL_IDENTIFIER}.so"] = compile_binary(tmp)
+    entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"], units, serialize)
+    entries["resources/slaveclass.txt"] = (cls + "\n").encode()
+    entries[f"binaries/{_platform()}/{cls}.so"] = compile_binary(tmp, cls)
     tmp_out = out.with_suffix(".fmu.part")
     with zipfile.ZipFile(tmp_out, "w", zipfile.ZIP_DEFLATED) as zout:
         for name, data in entries.items():
@@ -85,7 +107,7 @@ def _platform() -> str:
     return "linux64"
 
 
-def compile_binary(tmp: Path) -> bytes:
+def compile_binary(tmp: Path, name: str) -> bytes:
     """Compile fmu/c/fmi2_python.c against this Python (the FMU runs on the Python that
     built it) and return the shared library."""
     import fmpy
@@ -97,7 +119,7 @@ def compile_binary(tmp: Path) -> bytes:
     include = sysconfig.get_paths()["include"]
     if not (Path(include) / "Python.h").exists():
         raise BuildError(f"Python.h not found in {include}: install this Python's development headers")
-    so = tmp / f"{MODEL_IDENTIFIER}.so"
+    so = tmp / f"{name}.so"
     cmd = [cc, "-shared", "-fPIC", "-O2", "-o", str(so), str(HERE / "c" / "fmi2_python.c"),
            "-I", str(Path(fmpy.__file__).parent / "c-code"), "-I", include,
            "-L", str(lib.parent), f"-l:{lib.name}", f"-Wl,-rpath,{lib.parent}", "-ldl", "-lm"]
@@ -107,14 +129,14 @@ def compile_binary(tmp: Path) -> bytes:
     return so.read_bytes()
 
 
-def _fix_description(xml: bytes) -> bytes:
-    from .dfa_actuator import UNITS
+def _fix_description(xml: bytes, units_of: dict | None, serialize: bool) -> bytes:
     root = ET.fromstring(xml)
     units: dict[str, None] = {}
     outputs: list[int] = []
     for i, sv in enumerate(root.find("ModelVariables"), start=1):
         real = sv.find("Real")
-        unit = UNITS.get(sv.get("name"), "")
+        unit = (units_of.get(sv.get("name"), "") if units_of is not None
+                else _unit_from_description(sv.get("description", "")))
         if real is not None and unit:
             real.set("unit", unit)
             units[unit] = None
@@ -128,8 +150,8 @@ def _fix_description(xml: bytes) -> bytes:
     pos = next(k for k, c in enumerate(children) if c.tag in ("TypeDefinitions", "LogCategories", "DefaultExperiment",
                                                              "VendorAnnotations", "ModelVariables"))
     root.insert(pos, ud)
-    # fmi2_python.c serializes the state (the slave pickles it)
-    root.find("CoSimulation").set("canSerializeFMUstate", "true")
+    # fmi2_python.c serializes the state when the slave can (the actuator pickles it)
+    root.find("CoSimulation").set("canSerializeFMUstate", "true" if serialize else "false")
     ms = root.find("ModelStructure")
     for child in list(ms):
         ms.remove(child)
@@ -142,6 +164,11 @@ def _fix_description(xml: bytes) -> bytes:
     ms.append(init)
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+def _unit_from_description(text: str) -> str:
+    """Companion FMUs state their units as "... [unit]" at the end of descriptions."""
+    return text[text.rindex("[") + 1:-1] if text.endswith("]") and "[" in text else ""
 
 
 def libpython() -> Path:

@@ -301,3 +301,26 @@ def test_c_host_dlopen_rtld_now(md, unzipped, tmp_path):
 @needs_gcc
 def test_c_host_exits_cleanly(md, unzipped, tmp_path):
     assert _run_c_host(md, unzipped, tmp_path, nsteps=5).returncode == 0
+
+
+def test_cosimulation_with_drive_and_load(fmu_path, tmp_path):
+    """fmpy runs the actuator with the drive-electronics and mass-spring load FMUs,
+    exchanging signals every 1 ms: the drive's slew-rate and current limits hold, a
+    30 Hz inversion holds the stroke, and the DC hold after a charge reset relaxes."""
+    from fmu import build_companion_fmu
+    from fmu.cosim import cosimulate
+    drive = build_companion_fmu("drive", tmp_path / "drive.fmu")
+    load = build_companion_fmu("load", tmp_path / "load.fmu")
+    for f in (drive, load):
+        assert fmpy.validation.validate_fmu(str(f)) == []
+    runs = {mode: cosimulate(fmu_path, drive, load, 4.0, drive_start={"mode": mode, "reset_time": 1.0})
+            for mode in ("reset_dc", "inversion")}
+    for r in runs.values():
+        assert np.max(np.abs(np.diff(r["voltage"]))) <= 5e6 * H * (1 + 1e-9)        # slew rate
+        assert np.max(np.abs(r["supply_current"])) <= 2e-3 * (1 + 1e-9)             # current limit
+        assert np.max(np.abs(r["supply_current"])) >= 0.99 * 2e-3                    # ... and it bites
+        assert abs(np.mean(r["force"][1000:]) - 0.51 * 9.81) < 0.1 * 0.51 * 9.81    # the load hangs on it
+    inv, dc = runs["inversion"]["stroke"], runs["reset_dc"]["stroke"]
+    assert abs(np.mean(inv[3500:]) - np.mean(inv[500:1000])) <= 0.01 * np.mean(inv[500:1000])
+    early, late = np.mean(dc[1500:2000]), np.mean(dc[3500:])
+    assert late < 0.98 * early and late > 0.5 * early
