@@ -47,11 +47,10 @@ def make_workspace(n, ne, nb, h0):
     matrix (Jacobian blocks and factorization), f at the current state, and the
     controller state. A stepping caller (the FMU) keeps it, so consecutive calls
     continue exactly like one call; copying it saves the complete solver state.
-    The last two arrays are f at the current state and the stage value of the last
-    accepted step (with its end values, it defines the step's dense output)."""
+    The last array is f at the current state."""
     ws = (np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, nb)), np.zeros((2, 2)),
           np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3)), np.zeros(ne), np.zeros(ne),
-          np.zeros(ne), np.zeros((2, 2)), np.zeros(n), np.zeros(n))
+          np.zeros(ne), np.zeros((2, 2)), np.zeros(n))
     ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0])
     return ws, ist
 
@@ -89,13 +88,12 @@ def _record(cfg, geo, mat, law, lawp, t, V, dVdt, F, y, ydot, E, kin, work, row,
 
 
 @njit(cache=True)
-def _dense_record(cfg, geo, mat, law, lawp, t, h, to, y, z1, z2, V, Vs, F, E, yi, ydi, kin, work, row, P):
-    """Record the outputs at time `to` in the step [t, t + h]: the quadratic through the
-    step's values y (at t), z1 (stage, t + gamma h) and z2 (t + h). Values only: a
-    Hermite cubic would carry the fast modes' start slopes, h f, across a long stiff
-    step and overshoot between the ends."""
+def _dense_record(cfg, geo, mat, law, lawp, s, h, to, y, z1, z2, V, Vs, F, E, yi, ydi, kin, work, row, P):
+    """Record the outputs at time `to`, the fraction s of the step of size h: the
+    quadratic through the step's values y (start), z1 (stage, s = gamma) and z2 (end).
+    Values only: a Hermite cubic would carry the fast modes' start slopes, h f, across
+    a long stiff step and overshoot between the ends."""
     n = y.shape[0]
-    s = min(1.0, max(0.0, (to - t) / h))
     g = GAMMA
     l0 = (s - g) * (s - 1.0) / g
     l1 = s * (s - 1.0) / (g * (g - 1.0))
@@ -109,7 +107,6 @@ def _dense_record(cfg, geo, mat, law, lawp, t, h, to, y, z1, z2, V, Vs, F, E, yi
     if yi[0] < 0.0:     # overshoot below the stop
         yi[0] = 0.0
     _record(cfg, geo, mat, law, lawp, to, V, Vs, F, yi, ydi, E, kin, work, row, P)
-    return s
 
 
 @njit(cache=True)
@@ -169,7 +166,7 @@ def _attracting(cfg, geo, mat, law, lawp, V, F, y, xk, eps, tmp, ytmp, kin, work
 def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_Fs, V_prev,
               rtol, scale, t_out, want_energy, store_states, max_steps, xc, ws, ist, one_step):
     """Integrate from seg_t[0] to seg_t[-1]. Records every accepted step, or the times
-    t_out if given (cubic Hermite dense output). Returns (rec, states, stats, y_end).
+    t_out if given (dense output, _dense_record). Returns (rec, states, stats, y_end).
 
     xc: strokes where the force jumps (the paper scheme's midpoint crossings; empty
     otherwise). There the stroke equation has a discontinuous right-hand side and the
@@ -202,7 +199,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     base = np.empty(n)
     kin = np.zeros(6)
     work = np.zeros(NWORK)
-    Jee, Jeb, Jbe, Jbb, Winv, zeta, tri, jbe, cp, dinv, S, fkeep, zg = ws
+    Jee, Jeb, Jbe, Jbb, Winv, zeta, tri, jbe, cp, dinv, S, fkeep = ws
     E = np.zeros(NPOW)
     Eold = np.zeros(NPOW)
     P0 = np.zeros(NPOW)
@@ -441,8 +438,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     for i in range(NPOW):
                         Eint[i] = Eold[i] + s * (E[i] - Eold[i]) if want_energy else 0.0
                     rec = _grow(rec, nrec)
-                    _dense_record(cfg, geo, mat, law, lawp, t, h, to, y, z1, z2, V0 + Vs * (to - ta), Vs,
-                                 F0 + Fs * (to - ta), Eint, yi, ydi, kin, work, rec[nrec], P1)
+                    _dense_record(cfg, geo, mat, law, lawp, s, h, to, y, z1, z2, V0 + Vs * (to - ta), Vs,
+                                  F0 + Fs * (to - ta), Eint, yi, ydi, kin, work, rec[nrec], P1)
                     if store_states:
                         states = _grow(states, nrec)
                         states[nrec, :] = yi
@@ -452,7 +449,6 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             if tb - t < 2.0 * hmin:
                 t = tb
             for i in range(n):
-                zg[i] = z1[i]
                 y[i] = z2[i]
                 f0[i] = f2[i]
             if not grid and not one_step:

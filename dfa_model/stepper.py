@@ -75,8 +75,9 @@ class Stepper:
         self.y = self.model.initial_state(x0)
         self.V_sol = 0.0
         self._ws, self._ist = self.model.workspace(1e-6)
-        # the solver state at the start of its last step (t, y, ist, ws, V_prev): for the
-        # dense output and for a redo; None when the solver sits exactly at t
+        # free stepping: the solver state at the start of its last step (t, y, ist, ws,
+        # V_prev), for a redo; None when the solver sits exactly at t. Never modified once
+        # taken, so saved states share it (as they share _poly)
         self._snap = None
         row, _ = self.model.diagnostics(self.y, 0.0, 0.0)
         row[R_X] = self.y[0]
@@ -127,7 +128,6 @@ class Stepper:
             a[...] = b
         self.y = yp.copy()
         self.V_sol = V_prev
-        self.ts = tp
         self._integrate(np.array([tp, self.t]), self.V, self.F, np.empty(0), False)
         self.ts = self.t
         self.V_sol = self.V
@@ -157,22 +157,16 @@ class Stepper:
     # ------------------------------------------------------------------ state
     def get_state(self) -> tuple:
         """A copy of everything the next step depends on."""
-        snap = self._snap
-        if snap is not None:
-            snap = (snap[0], snap[1].copy(), snap[2].copy(), tuple(a.copy() for a in snap[3]), snap[4])
         return (self.t, self.V, self.F, self.ts, self.V_sol, self.n_steps, self.y.copy(), self.out.copy(),
-                self._ist.copy(), tuple(a.copy() for a in self._ws), snap, self._poly)
+                self._ist.copy(), tuple(a.copy() for a in self._ws), self._snap, self._poly)
 
     def set_state(self, state: tuple) -> None:
-        self.t, self.V, self.F, self.ts, self.V_sol, self.n_steps, y, out, ist, ws, snap, self._poly = state
+        self.t, self.V, self.F, self.ts, self.V_sol, self.n_steps, y, out, ist, ws, self._snap, self._poly = state
         self.y = y.copy()
         self.out = out.copy()
         self._ist[:] = ist
         for a, b in zip(self._ws, ws):
             a[...] = b
-        if snap is not None:
-            snap = (snap[0], snap[1].copy(), snap[2].copy(), tuple(a.copy() for a in snap[3]), snap[4])
-        self._snap = snap
 
 
 def _finite_positive(name, v):

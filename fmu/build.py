@@ -52,22 +52,23 @@ def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAA
                         canGetAndSetFMUstate=True)
 
 
-# the co-simulation example's companions: script, slave class
-COMPANIONS = {"drive": (HERE / "drive_electronics.py", "DriveElectronics"),
-              "load": (HERE / "mass_spring_load.py", "MassSpringLoad")}
+# the co-simulation example's companions: slave module, slave class
+COMPANIONS = {"drive": ("drive_electronics", "DriveElectronics"), "load": ("mass_spring_load", "MassSpringLoad")}
 
 
 def build_companion_fmu(kind: str, out: str | os.PathLike) -> Path:
     """Build the drive-electronics ("drive") or mass-spring load ("load") FMU."""
     if kind not in COMPANIONS:
         raise BuildError(f"kind: got {kind!r}, expected one of {', '.join(COMPANIONS)}")
-    script, cls = COMPANIONS[kind]
-    return _package(script, cls, out, [])
+    import importlib
+    name, cls = COMPANIONS[kind]
+    module = importlib.import_module(f".{name}", __package__)
+    return _package(HERE / f"{name}.py", cls, out, [], units=module.UNITS)
 
 
-def _package(script: Path, cls: str, out, project_files, units=None, serialize=False, **flags) -> Path:
-    """pythonfmu packs the slave; _rewrite fixes the description and adds our binary.
-    units: name -> unit (default: the "[unit]" ending each description)."""
+def _package(script: Path, cls: str, out, project_files, units: dict, serialize=False, **flags) -> Path:
+    """pythonfmu packs the slave; _rewrite fixes the description (units: variable name ->
+    unit, the slave module's UNITS) and adds our binary."""
     try:
         from pythonfmu import FmuBuilder
     except ImportError:
@@ -129,14 +130,13 @@ def compile_binary(tmp: Path, name: str) -> bytes:
     return so.read_bytes()
 
 
-def _fix_description(xml: bytes, units_of: dict | None, serialize: bool) -> bytes:
+def _fix_description(xml: bytes, units_of: dict, serialize: bool) -> bytes:
     root = ET.fromstring(xml)
     units: dict[str, None] = {}
     outputs: list[int] = []
     for i, sv in enumerate(root.find("ModelVariables"), start=1):
         real = sv.find("Real")
-        unit = (units_of.get(sv.get("name"), "") if units_of is not None
-                else _unit_from_description(sv.get("description", "")))
+        unit = units_of.get(sv.get("name"), "")
         if real is not None and unit:
             real.set("unit", unit)
             units[unit] = None
@@ -164,11 +164,6 @@ def _fix_description(xml: bytes, units_of: dict | None, serialize: bool) -> byte
     ms.append(init)
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-
-
-def _unit_from_description(text: str) -> str:
-    """Companion FMUs state their units as "... [unit]" at the end of descriptions."""
-    return text[text.rindex("[") + 1:-1] if text.endswith("]") and "[" in text else ""
 
 
 def libpython() -> Path:

@@ -75,6 +75,7 @@ def cosimulate(actuator: str | Path, drive: str | Path, load: str | Path, stop_t
         ld = _Unit(load, "load", load_start or {}, stop_time)
         units.append(ld)
         out = {k: np.empty(n + 1) for k in ("t", "voltage", "supply_current", "force", "mass_position", *RECORD)}
+        i_cap = RECORD.index("capacitance")
         for k in range(n + 1):
             t = k * step
             a = act.get(RECORD)
@@ -87,7 +88,7 @@ def cosimulate(actuator: str | Path, drive: str | Path, load: str | Path, stop_t
             if k == n:
                 break
             act.set(("voltage", "force"), (v, f))
-            drv.set(("load_capacitance",), (a[RECORD.index("capacitance")],))
+            drv.set(("load_capacitance",), (a[i_cap],))
             ld.set(("stroke",), (a[0],))
             for u in units:
                 u.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=step)

@@ -21,6 +21,8 @@ PARAMS = {  # name: (unit, description, start, lower bound (exclusive unless 0))
     "slew_rate": ("V/s", "amplifier slew rate limit", 5.0e6),
     "current_limit": ("A", "amplifier output current limit", 2.0e-3),
 }
+# the unit of every Real variable (build.py writes them into modelDescription.xml)
+UNITS = {"load_capacitance": "F", "voltage": "V", "supply_current": "A", **{k: p[0] for k, p in PARAMS.items()}}
 
 
 def reference(mode, t, amplitude, frequency, reset_time):

@@ -20,6 +20,8 @@ PARAMS = {
     "stiffness": ("N/m", "spring stiffness between actuator and mass", 2000.0),
     "damping": ("N s/m", "damping of the mass motion", 5.0),
 }
+# the unit of every Real variable (build.py writes them into modelDescription.xml)
+UNITS = {"stroke": "m", "force": "N", "mass_position": "m", **{k: p[0] for k, p in PARAMS.items()}}
 
 
 class MassSpringLoad(Fmi2Slave):

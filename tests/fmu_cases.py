@@ -50,6 +50,27 @@ def slave(md, unzipped, name="a"):
     return s
 
 
+def fmu_stroke(md, unzipped, V, reals=None, booleans=None, stop_time=None):
+    """Stroke at every step of H through the FMU, voltage V[k] on step k, 5 N load."""
+    r = vr(md)
+    s = slave(md, unzipped)
+    s.setupExperiment(startTime=0.0, stopTime=stop_time)
+    s.enterInitializationMode()
+    for key, value in (reals or {}).items():
+        s.setReal([r[key]], [value])
+    for key, value in (booleans or {}).items():
+        s.setBoolean([r[key]], [value])
+    s.exitInitializationMode()
+    x = []
+    for k in range(len(V)):
+        s.setReal([r["voltage"], r["force"]], [V[k], 5.0])
+        s.doStep(k * H, H)
+        x.append(s.getReal([r["stroke"]])[0])
+    s.terminate()
+    s.freeInstance()
+    return np.array(x)
+
+
 def direct_stroke(nsteps, voltage=6000.0, force=5.0):
     """Stroke after nsteps steps of H, computed by the model directly (no FMU)."""
     st = Stepper(preset("vshape-table1"), v_nominal=6000.0)
@@ -82,19 +103,7 @@ def test_matches_direct_model(md, unzipped):
     warnings.simplefilter("ignore", PhysicsWarning)
     n = 600
     V = np.concatenate([bipolar(300), np.full(n - 300, 6000.0)])
-    r = vr(md)
-    s = slave(md, unzipped)
-    s.setupExperiment(startTime=0.0)
-    s.enterInitializationMode()
-    s.setReal([r["v_nominal"]], [6000.0])
-    s.exitInitializationMode()
-    x = []
-    for k in range(n):
-        s.setReal([r["voltage"], r["force"]], [V[k], 5.0])
-        s.doStep(k * H, H)
-        x.append(s.getReal([r["stroke"]])[0])
-    s.terminate()
-    s.freeInstance()
+    x = fmu_stroke(md, unzipped, V, reals={"v_nominal": 6000.0})
     t = np.arange(n + 1) * H
     ref = simulate(preset("vshape-table1"), Protocol.single(Sampled(t[:-1], V, hold=True), n * H), 5.0,
                    t_eval=t[1:])
@@ -212,18 +221,7 @@ def test_free_stepping_is_accurate(md, unzipped):
     warnings.simplefilter("ignore", PhysicsWarning)
     n = 400
     V = bipolar(n)
-    r = vr(md)
-    s = slave(md, unzipped)
-    s.setupExperiment(startTime=0.0, stopTime=n * H)
-    s.enterInitializationMode()
-    s.setBoolean([r["land_on_communication_points"]], [False])
-    s.exitInitializationMode()
-    x = []
-    for k in range(n):
-        s.setReal([r["voltage"], r["force"]], [V[k], 5.0])
-        s.doStep(k * H, H)
-        x.append(s.getReal([r["stroke"]])[0])
-    s.freeInstance()
+    x = fmu_stroke(md, unzipped, V, booleans={"land_on_communication_points": False}, stop_time=n * H)
     t = np.arange(n + 1) * H
     proto = Protocol.single(Sampled(t[:-1], V, hold=True), n * H)
     ref = simulate(preset("vshape-table1"), proto, 5.0, t_eval=t[1:]).x
