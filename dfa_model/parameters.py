@@ -154,7 +154,7 @@ class Parameters:
         """Nested dict in the parameter-file layout (only keys that apply)."""
         out: dict = {"layout": self.layout}
         for key, spec in SPEC.items():
-            if not _applies(self, key):
+            if not applies(self, key):
                 continue
             out.setdefault(spec.table, {})[key] = getattr(self, key)
         return out
@@ -182,7 +182,11 @@ def _fmt(v) -> str:
     return repr(float(v)) if abs(v) >= 1e-3 and abs(v) < 1e6 else f"{v:.6g}"
 
 
-def _applies(p: Parameters, key: str) -> bool:
+def applies(p, key: str) -> bool:
+    """Whether parameter `key` takes part in the model for p's layout, scheme and law
+    (`a` is v-shaped only, `volume` peano-hasel only, `rho_t_s` the paper scheme's,
+    `m_rho`, `q_rho`, `rho_min` the linear law's). p: anything with attributes layout,
+    scheme and law."""
     if key == "a":
         return p.layout == "v-shaped"
     if key == "volume":
@@ -200,7 +204,7 @@ def validate(p: Parameters) -> None:
     for key, spec in SPEC.items():
         value = getattr(p, key)
         if value is None:
-            if _applies(p, key):
+            if applies(p, key):
                 raise ParameterError(f"{key}: missing; {spec.table}.{key} is required for layout {p.layout!r}: {spec.range_text()}")
             continue
         check_value(key, value, spec)
