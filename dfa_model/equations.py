@@ -26,15 +26,15 @@ from numba import njit
 from .kinematics import V_SHAPED, front_slope, kin_eval, profile, zipping_angle
 
 # mat indices
-EPS_L, EPS_F, T_F, T_LZ, T0, U0, TAU_L, TAU_F, RHO_TS, B, MASS, K, DS, W, XSC, QSC = range(16)
-NMAT = 16  # XSC, QSC: stroke and charge-density scales for tolerances and differences
+EPS_L, EPS_F, T_F, T_LZ, T0, U0, TAU_L, TAU_F, RHO_TS, B, MASS, K, DS, W, XSC, QSC, X_E = range(17)
+NMAT = 17  # XSC, QSC: stroke and charge-density scales for tolerances and differences; X_E: the upper stop
 # cfg indices
 C_LAYOUT, C_SCHEME, C_CONST, C_NB, C_NBORD, C_M = range(6)
 # output record columns
 (R_T, R_X, R_V, R_LZ, R_ANG, R_FE, R_I, R_C, R_U, R_VOLT, R_F, R_EMAX, R_Q,
- R_EIN, R_EJ, R_EINTRA, R_ESRC, R_EDAMP, R_ELOAD) = range(19)
-NREC = 19
-NPOW = 6  # P_in, P_joule, P_intra, P_source, P_damp, P_load
+ R_EIN, R_EJ, R_EINTRA, R_ESRC, R_EDAMP, R_ELOAD, R_EIMPACT) = range(20)
+NREC = 20
+NPOW = 7  # P_in, P_joule, P_intra, P_source, P_damp, P_load, impacts (booked per event, no power)
 
 _GX, _GW = np.polynomial.legendre.leggauss(8)
 GX = np.ascontiguousarray(_GX)
@@ -164,27 +164,23 @@ def elem_rate(cfg, geo, mat, law, lawp, kin, j, V, ye, r, mom):
 
 @njit(cache=True)
 def mech_rhs(cfg, mat, F, y, Fe, ydot):
-    """Eq. (7): m x'' + b x' + k x + F + F_e = 0, with a unilateral stop at x = 0
-    (films straight): resting there, the motion is held while the net force pushes
-    into the stop."""
+    """Eq. (7): m x'' + b x' + k x + F + F_e = 0, free motion. The stroke's stops at
+    x = 0 (films straight) and x = x_e (front at the electrode end) are events of the
+    integrator, which holds the motion while the net force pushes into a stop: a clamp
+    here would put a kink into the implicit stages (with mass, the step size collapsed
+    on it)."""
     if cfg[C_NBORD] == 1:
         ydot[0] = -(F + mat[K] * y[0] + Fe) / mat[B]
-        if y[0] <= 0.0 and ydot[0] < 0.0:
-            ydot[0] = 0.0
     else:
         ydot[0] = y[1]
         ydot[1] = -(mat[B] * y[1] + F + mat[K] * y[0] + Fe) / mat[MASS]
-        if y[0] <= 0.0 and y[1] <= 0.0:
-            ydot[0] = 0.0
-            if ydot[1] < 0.0:
-                ydot[1] = 0.0
 
 
 @njit(cache=True)
-def stroke_velocity(cfg, y, ydot):
-    """dx/dt for the outputs: zero while resting on the stop at x = 0."""
+def stroke_velocity(cfg, mat, y, ydot):
+    """dx/dt for the outputs: zero while resting on a stop."""
     v = ydot[0] if cfg[C_NBORD] == 1 else y[1]
-    if y[0] <= 0.0 and v < 0.0:
+    if (y[0] <= 0.0 and v < 0.0) or (y[0] >= mat[X_E] and v > 0.0):
         v = 0.0
     return v
 
@@ -243,6 +239,8 @@ def jacobian(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, kin, wor
             Jbe[j, c] = -cF * D * (Tp - T_base) / h / den
     # x column by a forward difference of the whole right-hand side
     hx = 1e-7 * mat[XSC]
+    if y[0] + hx > mat[X_E]:      # at the upper stop: difference towards the interior
+        hx = -hx
     for i in range(y.shape[0]):
         ytmp[i] = y[i]
     ytmp[0] += hx
@@ -341,7 +339,7 @@ def diagnostics(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, work, rec, P
     eps_l, T0v, u0, ds, w = mat[EPS_L], mat[T0], mat[U0], mat[DS], mat[W]
     kin_eval(layout, geo, y[0], kin)
     D = kin[1]
-    v = stroke_velocity(cfg, y, ydot)
+    v = stroke_velocity(cfg, mat, y, ydot)
     I = 0.0
     C = 0.0
     U = 0.0
@@ -415,3 +413,4 @@ def write_outputs(layout, geo, mat, kin, y, v, V, F, T, I, C, U, Q, Emax, PJ, Pi
     P[3] = Psrc
     P[4] = mat[B] * v * v
     P[5] = (F + mat[K] * y[0]) * v
+    P[6] = 0.0

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .equations import C_M, C_NB, C_NBORD, C_SCHEME, NPOW, NREC, R_C, R_EIN, R_T, R_X, XSC
+from .equations import C_M, C_NB, C_NBORD, C_SCHEME, K, MASS, NPOW, NREC, R_C, R_EIN, R_T, R_X, X_E, XSC
 from .kernels import diagnostics, factor, jacobian, solve
 from .nodal import NWORK
 from .kernels import rhs as rhs_any
@@ -35,11 +35,16 @@ E2 = 2.0 * DG / 3.0
 NEWTON_TOL = 0.05
 MAXIT = 8
 
-OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE = 0, 1, 2, 3
+OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE, OUTPUT_FULL = 0, 1, 2, 3, 4
 # carried controller state `ist` (see make_workspace): Jacobian valid, step of the stored
-# factorization, Newton contraction estimate, next step size, stuck index, f0 valid, and
-# the load at the end of the last call (its voltage is the caller's V_prev)
-I_JOK, I_HFACT, I_ETA, I_HN, I_STUCK, I_F0OK, I_F = 0, 1, 2, 3, 4, 5, 6
+# factorization, Newton contraction estimate, next step size, stuck index, f0 valid, the
+# load at the end of the last call (its voltage is the caller's V_prev), and the stop the
+# stroke rests on (-1: x = 0, +1: x = x_e, 0: free)
+I_JOK, I_HFACT, I_ETA, I_HN, I_STUCK, I_F0OK, I_F, I_STOP = 0, 1, 2, 3, 4, 5, 6, 7
+# impact energy slot of the energy accumulators (equations.NPOW)
+E_IMPACT = 6
+# a stop event (impact, release) is located by at most this many retried steps
+EV_TRIES = 6
 
 
 def make_workspace(n, ne, nb, h0):
@@ -51,7 +56,7 @@ def make_workspace(n, ne, nb, h0):
     ws = (np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, nb)), np.zeros((2, 2)),
           np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3)), np.zeros(ne), np.zeros(ne),
           np.zeros(ne), np.zeros((2, 2)), np.zeros(n))
-    ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0])
+    ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0, 0.0])
     return ws, ist
 
 
@@ -104,8 +109,10 @@ def _dense_record(cfg, geo, mat, law, lawp, s, h, to, y, z1, z2, V, Vs, F, E, yi
     for i in range(n):
         yi[i] = l0 * y[i] + l1 * z1[i] + l2 * z2[i]
         ydi[i] = d0 * y[i] + d1 * z1[i] + d2 * z2[i]
-    if yi[0] < 0.0:     # overshoot below the stop
-        yi[0] = 0.0
+    yi[0] = min(max(yi[0], 0.0), mat[X_E])     # the interpolant's overshoot past a stop
+    if y[0] == z1[0] and z1[0] == z2[0]:       # held (a stop, a sliding point): exactly
+        yi[0] = y[0]
+        ydi[0] = 0.0
     _record(cfg, geo, mat, law, lawp, to, V, Vs, F, yi, ydi, E, kin, work, row, P)
 
 
@@ -115,15 +122,16 @@ def _newton(cfg, geo, mat, law, lawp, V, F, z, base, gh, held, fz, res, dz, y, s
     """Simplified Newton for a stage z = base + gh f(z) with the factored matrix.
     `eta` carries the contraction estimate theta/(1 - theta) from earlier iterations
     (Hairer & Wanner's RADAU5 strategy): one iteration suffices when Newton contracts
-    fast. With `held`, the stroke is stuck at a force jump (dx/dt = 0). Returns
-    (converged, iterations, eta)."""
+    fast. With `held`, the stroke is stuck at a force jump or rests on a stop (the
+    mechanical rates are zero). Returns (converged, iterations, eta)."""
     n = z.shape[0]
     nbord = cfg[C_NBORD]
     nprev = 0.0
     for it in range(MAXIT):
         rhs_any(cfg, geo, mat, law, lawp, V, F, z, fz, kin, work, tri, jbe)
         if held:
-            fz[0] = 0.0
+            for i in range(nbord):
+                fz[i] = 0.0
         for i in range(n):
             res[i] = -(z[i] - base[i] - gh * fz[i])
         solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, dz)
@@ -163,10 +171,67 @@ def _attracting(cfg, geo, mat, law, lawp, V, F, y, xk, eps, tmp, ytmp, kin, work
 
 
 @njit(cache=True)
+def _push(cfg, geo, mat, law, lawp, V, F, y, tmp, kin, work, tri, jbe):
+    """Net force towards zipping at state y, -(F + k x + F_e) (N), and its scale
+    |F| + |k x| + |F_e| (for a tolerance)."""
+    Fe = rhs_any(cfg, geo, mat, law, lawp, V, F, y, tmp, kin, work, tri, jbe)
+    return -(F + mat[K] * y[0] + Fe), abs(F) + abs(mat[K] * y[0]) + abs(Fe)
+
+
+@njit(cache=True)
+def _touching(y, nbord, x_e):
+    """The stop the state touches, moving into it or at rest: -1 (x = 0), +1 (x_e), 0."""
+    if y[0] <= 0.0 and (nbord == 1 or y[1] <= 0.0):
+        return -1
+    if y[0] >= x_e and (nbord == 1 or y[1] >= 0.0):
+        return 1
+    return 0
+
+
+@njit(cache=True)
+def _held(stop, g):
+    """Whether a stroke on `stop` stays there under the net zipping force g."""
+    return (stop < 0 and g <= 0.0) or (stop > 0 and g >= 0.0)
+
+
+@njit(cache=True)
+def _event_past(t, h, ev_t, wa, wb, prev):
+    """Bracket bookkeeping when the step [t, t + h] ends past a stop event: a new far
+    end (unless the step only re-reached the old one), the near end kept."""
+    if t + h == ev_t:
+        return wa, wb, prev
+    return (wa * 0.5 if prev == 1 else wa), 1.0, 1
+
+
+@njit(cache=True)
+def _event_trial(t, h, f0, f1, ev_t, wa, wb, prev):
+    """Fraction of the step [t, t + h] at which to try the event next: the secant root of
+    the event function (f0 at t, f1 at t + h, opposite signs) with Illinois weights."""
+    if t + h != ev_t:
+        wa = wa * 0.5 if prev == 1 else wa
+        wb = 1.0
+    return min(0.999, max(1e-3, wa * f0 / (wa * f0 - wb * f1)))
+
+
+@njit(cache=True)
 def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_Fs, V_prev,
-              rtol, scale, t_out, want_energy, store_states, max_steps, xc, ws, ist, one_step):
+              rtol, scale, t_out, want_energy, store_states, max_steps, xc, ws, ist, one_step, want_trace,
+              max_rows):
     """Integrate from seg_t[0] to seg_t[-1]. Records every accepted step, or the times
-    t_out if given (dense output, _dense_record). Returns (rec, states, stats, y_end).
+    t_out if given (dense output, _dense_record). Returns (rec, states, stats, y_end,
+    trace); with want_trace, trace holds the stroke of every accepted step as rows
+    (t_end, x at the stage t + gamma h, x_end), after a first row (t0, x0, x0): the
+    solver's own dense record of x(t), from which the metrics are computed whatever
+    the output sampling.
+
+    Stops: the stroke lies in [0, x_e]. A step that ends past a stop is retried to end
+    there (the crossing located by linear interpolation, at most EV_TRIES times); on
+    the stop the motion is held (inelastic impact: the kinetic energy is booked) while
+    the net force pushes into it, and released when it no longer does (located the
+    same way).
+
+    max_rows: the output record's row limit when every step is recorded (status
+    OUTPUT_FULL when reached; t_out is checked by the caller).
 
     xc: strokes where the force jumps (the paper scheme's midpoint crossings; empty
     otherwise). There the stroke equation has a discontinuous right-hand side and the
@@ -209,6 +274,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     Eint = np.zeros(NPOW)
     rec = np.zeros((min(1024, t_out.shape[0] + 2) if t_out.shape[0] > 0 else (8 if one_step else 1024), NREC))
     states = np.zeros((1024 if store_states else 1, n))
+    trace = np.zeros((1024 if want_trace else 1, 3))
+    ntr = 0
     nrec = 0
     nfev = 0
     njac = 0
@@ -226,7 +293,23 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     stuck = int(ist[I_STUCK])     # index into xc while sliding
     sliding = xc.shape[0] > 0 and nbord == 1
     eps_x = 1e-9 * mat[XSC]
+    stop = int(ist[I_STOP])       # the stop the stroke rests on (held), or 0
+    x_e = mat[X_E]
+    tol_x = rtol * scale[0]       # how far past a stop a step may end without a retry
+    g_hold = 0.0                  # net zipping force at y while held
+    ev_tries = 0
+    # a stop event being located: bracket [t (held/short side), ev_t (past the event)],
+    # regula falsi with the Illinois rule (an end kept twice in a row has its value halved)
+    ev_t = -math.inf
+    ev_wa = 1.0                   # weight of the near end's value
+    ev_wb = 1.0                   # weight of the far end's value
+    ev_prev = 0                   # last trial's outcome: 1 past the event, 2 short of it
     t = seg_t[0]
+    if want_trace:
+        trace[0, 0] = t
+        trace[0, 1] = y[0]
+        trace[0, 2] = y[0]
+        ntr = 1
     hn = ist[I_HN]
     h = hn
     t_end = seg_t[nseg]
@@ -254,6 +337,9 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         if smooth:
             for i in range(n):
                 f0[i] = fkeep[i]
+            if stop != 0:             # held through the call boundary: the force for a release
+                g_hold = _push(cfg, geo, mat, law, lawp, V0, F0, y, tmp, kin, work, tri, jbe)[0]
+                nfev += 1
         else:
             rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
             nfev += 1
@@ -274,6 +360,21 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     f0[0] = 0.0
                 else:
                     stuck = -1
+            # inputs jumped: on a stop, the stroke stays or leaves with the new force
+            touch = _touching(y, nbord, x_e)
+            new_stop = 0
+            if touch != 0:
+                g_hold = _push(cfg, geo, mat, law, lawp, V0, F0, y, tmp, kin, work, tri, jbe)[0]
+                nfev += 1
+                if _held(touch, g_hold):
+                    new_stop = touch
+            if new_stop != stop:
+                stop = new_stop
+                jac_ok = False
+                ev_tries = 0
+            if stop != 0:
+                for i in range(nbord):
+                    f0[i] = 0.0
         if sidx == 0 and not one_step:
             if (not grid) or (kout < t_out.shape[0] and t_out[kout] <= t):
                 rec = _grow(rec, nrec)
@@ -294,6 +395,9 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             if nsteps + nrej >= max_steps:
                 status = MAX_STEPS
                 break
+            if nrec >= max_rows and not grid:
+                status = OUTPUT_FULL
+                break
             # the Jacobian is kept across steps while Newton converges fast; it is
             # renewed at every breakpoint, on slow or failed convergence and when the
             # stroke sticks or is released
@@ -301,7 +405,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             if not jac_ok:
                 jacobian(cfg, geo, mat, law, lawp, V0 + Vs * (t - ta), F0 + Fs * (t - ta), y, fbase,
                          Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp, jbe)
-                if stuck >= 0:        # the stroke is held: its row decouples
+                if stuck >= 0 or stop != 0:    # the stroke is held: its rows decouple
                     Jbb[:, :] = 0.0
                     Jbe[:, :] = 0.0
                 njac += 1
@@ -322,7 +426,9 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             for i in range(n):
                 z1[i] = y[i] + GAMMA * h * f0[i]
                 base[i] = y[i] + gh * f0[i]
-            conv, its, eta = _newton(cfg, geo, mat, law, lawp, Vg, Fg, z1, base, gh, stuck >= 0, fz, res, dz, y,
+            z1[0] = min(max(z1[0], 0.0), x_e)     # predictors start inside the stops
+            held = stuck >= 0 or stop != 0
+            conv, its, eta = _newton(cfg, geo, mat, law, lawp, Vg, Fg, z1, base, gh, held, fz, res, dz, y,
                                      scale, rtol, Winv, zeta, Jbe, tri, cp, dinv, S, fb, kin, work, jbe, eta)
             nfev += its
             slow = its > 2
@@ -336,7 +442,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 for i in range(n):
                     z2[i] = z1[i] + (1.0 - GAMMA) * h * f1[i]
                     base[i] = y[i] + h * WTR * (f0[i] + f1[i])
-                conv, its, eta = _newton(cfg, geo, mat, law, lawp, V2, F2, z2, base, gh, stuck >= 0, fz, res, dz, y,
+                z2[0] = min(max(z2[0], 0.0), x_e)
+                conv, its, eta = _newton(cfg, geo, mat, law, lawp, V2, F2, z2, base, gh, held, fz, res, dz, y,
                                          scale, rtol, Winv, zeta, Jbe, tri, cp, dinv, S, fb, kin, work, jbe, eta)
                 nfev += its
                 slow = slow or its > 2
@@ -355,8 +462,9 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 continue
             for i in range(n):
                 f2[i] = (z2[i] - base[i]) / gh
-            if stuck >= 0:
-                f2[0] = 0.0
+            if held:
+                for i in range(nbord):
+                    f2[i] = 0.0
             for i in range(n):
                 res[i] = h * (E0 * f0[i] + E1 * f1[i] + E2 * f2[i])
             solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, err)
@@ -373,6 +481,34 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 if hn < hmin:
                     status = STEP_UNDERFLOW
                 continue
+            # ---- stop events: a step ending past a stop, or a held stroke pulled away,
+            # is retried to end at the event (linear interpolation of the crossing)
+            event = 0             # 1: impact on a stop, 2: release from it
+            g2 = 0.0
+            if stop != 0:
+                g2, gscale = _push(cfg, geo, mat, law, lawp, V2, F2, z2, tmp, kin, work, tri, jbe)
+                nfev += 1
+                if not _held(stop, g2):
+                    if abs(g2) > rtol * gscale and ev_tries < EV_TRIES and g_hold != g2:
+                        th = _event_trial(t, h, g_hold, g2, ev_t, ev_wa, ev_wb, ev_prev)
+                        ev_wa, ev_wb, ev_prev = _event_past(t, h, ev_t, ev_wa, ev_wb, ev_prev)
+                        ev_tries += 1
+                        nrej += 1
+                        ev_t = t + h
+                        hn = h * th
+                        continue
+                    event = 2
+            elif z2[0] < 0.0 or z2[0] > x_e:
+                xb = 0.0 if z2[0] < 0.0 else x_e
+                if abs(z2[0] - xb) > tol_x and ev_tries < EV_TRIES and y[0] != z2[0]:
+                    th = _event_trial(t, h, y[0] - xb, z2[0] - xb, ev_t, ev_wa, ev_wb, ev_prev)
+                    ev_wa, ev_wb, ev_prev = _event_past(t, h, ev_t, ev_wa, ev_wb, ev_prev)
+                    ev_tries += 1
+                    nrej += 1
+                    ev_t = t + h
+                    hn = h * th
+                    continue
+                event = 1
             # ---- accepted
             nsteps += 1
             if sliding:
@@ -408,14 +544,34 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     nfev += 1
                     if stuck >= 0:
                         f2[0] = 0.0
-            # unilateral stop at x = 0 (films straight): project before any output
-            if z2[0] < 0.0:
-                z2[0] = 0.0
-                if nbord == 2 and z2[1] < 0.0:
-                    z2[1] = 0.0
+            if event != 0:
+                ev_tries = 0
+                ev_t = -math.inf
+                ev_wa, ev_wb, ev_prev = 1.0, 1.0, 0
+            elif ev_t > t + h:    # a trial fell short of the event: the near end moves
+                ev_wb = ev_wb * 0.5 if ev_prev == 2 else ev_wb
+                ev_wa, ev_prev = 1.0, 2
+            if event == 2:        # released: free motion from rest on the stop
+                stop = 0
+                jac_ok = False
                 rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
                 nfev += 1
+            elif event == 1:      # impact (inelastic): on the stop, held if pushed into it
+                side = -1 if z2[0] < 0.0 else 1
+                z2[0] = 0.0 if side < 0 else x_e
+                if nbord == 2 and z2[1] * side > 0.0:
+                    if want_energy:
+                        E[E_IMPACT] += 0.5 * mat[MASS] * z2[1] * z2[1]
+                    z2[1] = 0.0
+                g2 = _push(cfg, geo, mat, law, lawp, V2, F2, z2, tmp, kin, work, tri, jbe)[0]
+                rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
+                nfev += 2
+                stop = side if _held(side, g2) else 0
+                if stop != 0:
+                    for i in range(nbord):
+                        f2[i] = 0.0
                 jac_ok = False
+            g_hold = g2
             if want_energy:
                 Eold[:] = E
                 diagnostics(cfg, geo, mat, law, lawp, Vg, Vs, Fg, z1, f1, kin, work, row, P1)
@@ -451,6 +607,12 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             for i in range(n):
                 y[i] = z2[i]
                 f0[i] = f2[i]
+            if want_trace:
+                trace = _grow(trace, ntr)
+                trace[ntr, 0] = t
+                trace[ntr, 1] = min(max(z1[0], 0.0), x_e)
+                trace[ntr, 2] = y[0]
+                ntr += 1
             if not grid and not one_step:
                 rec = _grow(rec, nrec)
                 _record(cfg, geo, mat, law, lawp, t, V2, Vs, F2, y, f0, E, kin, work, rec[nrec], P1)
@@ -460,6 +622,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 nrec += 1
             fac = min(5.0, max(0.2, 0.9 * en ** (-1.0 / 3.0) if en > 0 else 5.0))
             hn = h * fac if h >= hn else max(hn, h * fac)
+            if ev_t > t:          # a located stop event still ahead: stay inside its bracket
+                hn = min(hn, ev_t - t)
             if one_step:
                 done = True
         if status != OK:
@@ -476,5 +640,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     ist[I_ETA] = eta
     ist[I_HN] = hn
     ist[I_STUCK] = stuck
+    ist[I_STOP] = stop
     stats = np.array([nsteps, nrej, nfev, njac, status, t], dtype=np.float64)
-    return rec[:nrec].copy(), states[:nrec].copy() if store_states else states[:0].copy(), stats, y
+    return (rec[:nrec].copy(), states[:nrec].copy() if store_states else states[:0].copy(), stats, y,
+            trace[:ntr].copy())

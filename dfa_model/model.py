@@ -10,7 +10,7 @@ import numpy as np
 
 from . import dielectrics, kinematics
 from .equations import (B, DS, EPS_F, EPS_L, K, MASS, NMAT, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F, TAU_L, U0,
-                        W, XSC)
+                        W, X_E, XSC)
 from .kernels import NODAL, P0_SCHEME, PAPER, diagnostics, rhs
 from .integrator import make_workspace
 from .nodal import NWORK
@@ -45,6 +45,7 @@ class DFAModel:
         mat[B], mat[MASS], mat[K] = p.b, p.m, p.k
         mat[DS], mat[W] = self.ds, p.w
         mat[XSC] = self.kin.x_e
+        mat[X_E] = self.kin.x_e
         mat[QSC] = p.eps_l * 1000.0 / mat[U0]
         self.mat = mat
         self.geo = self.kin.geo

@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .equations import (B, C_LAYOUT, C_M, C_NBORD, DS, EPS_L, MASS, T0, TAU_F, U0, W, XSC, j_of_E, mech_jacobian,
+from .equations import (B, C_LAYOUT, C_M, C_NBORD, DS, EPS_L, MASS, T0, TAU_F, U0, W, X_E, XSC, j_of_E, mech_jacobian,
                         mech_rhs, stroke_velocity, write_outputs)
 from .kinematics import front_slope, kin_eval, profile
 
@@ -239,6 +239,8 @@ def jacobian_p1(cfg, geo, mat, law, lawp, V, F, y, f0, tri, Jeb, Jbe, Jbb, kin, 
     for i in range(nq):
         Jbe[i, 0] = -cF * D * jbe[i] / den
     hx = 1e-7 * mat[XSC]
+    if y[0] + hx > mat[X_E]:      # at the upper stop: difference towards the interior
+        hx = -hx
     for i in range(y.shape[0]):
         ytmp[i] = y[i]
     ytmp[0] += hx
@@ -319,7 +321,7 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
     eps_l, t0, ds, w, tau_f = mat[EPS_L], mat[T0], mat[DS], mat[W], mat[TAU_F]
     kin_eval(layout, geo, y[0], kin)
     D = kin[1]
-    v = stroke_velocity(cfg, y, ydot)
+    v = stroke_velocity(cfg, mat, y, ydot)
     xi = work[0:NQMAX]
     wt = work[NQMAX:2 * NQMAX]
     uu = work[2 * NQMAX:3 * NQMAX]

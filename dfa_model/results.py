@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 
 from . import metrics
-from .equations import (R_ANG, R_C, R_EDAMP, R_EIN, R_EINTRA, R_EJ, R_ELOAD, R_EMAX, R_ESRC, R_F, R_FE, R_I,
-                        R_LZ, R_Q, R_T, R_U, R_V, R_VOLT, R_X)
+from .equations import (R_ANG, R_C, R_EDAMP, R_EIMPACT, R_EIN, R_EINTRA, R_EJ, R_ELOAD, R_EMAX, R_ESRC, R_F, R_FE,
+                        R_I, R_LZ, R_Q, R_T, R_U, R_V, R_VOLT, R_X)
+from .trace import StrokeTrace
 
 CSV_COLUMNS = ["time", "voltage", "force", "stroke", "current", "velocity", "zipped_length",
                "zipping_angle", "electrostatic_force", "capacitance", "stored_energy"]
@@ -22,10 +23,14 @@ class Result:
     Arrays: t, x (stroke), v, lz, theta (zipping angle, rad), Fe (zipping force, N),
     I (device current, A), C (capacitance at fixed interface charge, F), U (stored
     electrostatic energy, J), V, F, E_max (largest |E_l|, V/m). `states` holds the
-    element states at each output when requested (`charges=True`)."""
+    element states at each output when requested (`charges=True`).
+
+    `trace` is the stroke as the solver computed it (every accepted step, see
+    trace.StrokeTrace): the metrics use it, not the output samples, so they do not
+    depend on `t_eval`."""
 
     def __init__(self, model, protocol, load, rec, states, stats, wall_time, y_end, energy=False,
-                 y0=None, V_before=0.0):
+                 y0=None, V_before=0.0, trace=None):
         self.model = model
         self.params = model.params
         self.protocol = protocol
@@ -41,6 +46,10 @@ class Result:
         self.lz, self.theta, self.Fe = rec[:, R_LZ], rec[:, R_ANG], rec[:, R_FE]
         self.I, self.C, self.U = rec[:, R_I], rec[:, R_C], rec[:, R_U]
         self.V, self.F, self.E_max, self.Q = rec[:, R_VOLT], rec[:, R_F], rec[:, R_EMAX], rec[:, R_Q]
+        if trace is not None and len(trace) >= 1:
+            self.trace = StrokeTrace.from_solver(trace, 0.0, model.kin.x_e)
+        else:
+            self.trace = StrokeTrace.from_samples(self.t, self.x)
 
     # ---------------------------------------------------------------- windows
     def stage(self, label):
@@ -56,35 +65,43 @@ class Result:
         if self.has_reset and span is not None:
             return span
         t0 = span[0] if span is not None else 0.0
-        inside = self.t >= t0
-        tpk = float(self.t[inside][np.argmax(self.x[inside])])
-        return tpk, float(self.t[-1])
+        return self.trace.argmax(t0, self.trace.t1), self.trace.t1
 
     # ---------------------------------------------------------------- metrics
     @property
     def unzipping_speed(self) -> float:
         t0, t1 = self.hold_window()
-        return metrics.unzipping_speed(self.t, self.x, t0, t1)
+        return metrics.unzipping_speed(self.trace, t0, t1)
 
     @property
     def static_stroke(self) -> float:
         """Mean stroke over the reset stage (the paper's experimental definition), or
         over the first 0.5 s when there is no reset."""
         span = self.stage("reset")
-        t0, t1 = span if span is not None else (0.0, min(0.5, float(self.t[-1])))
-        return metrics.time_mean(self.t, self.x, t0, t1)
+        t0, t1 = span if span is not None else (0.0, min(0.5, self.trace.t1))
+        return metrics.time_mean(self.trace, t0, t1)
 
     @property
     def final_stroke(self) -> float:
-        return float(self.x[-1])
+        return float(self.trace(self.trace.t1))
+
+    @property
+    def peak_stroke(self) -> float:
+        """Largest stroke over the run (m)."""
+        return float(self.trace.extrema(self.trace.t0, self.trace.t1)[1][0])
+
+    def _window(self, label):
+        span = self.stage(label)
+        return span if span is not None else (self.trace.t0, self.trace.t1)
 
     def ripple(self, period, label="hold", last=5):
-        t0, t1 = self.stage(label) or (0.0, float(self.t[-1]))
-        return metrics.ripple(self.t, self.x, period, t0, t1, last)
+        """Peak-to-peak stroke per period (m), mean over the last `last` whole periods
+        of stage `label`."""
+        return metrics.ripple(self.trace, period, *self._window(label), last)
 
     def drift(self, period, label="hold", skip=1):
-        t0, t1 = self.stage(label) or (0.0, float(self.t[-1]))
-        return metrics.drift(self.t, self.x, period, t0, t1, skip)
+        """Slope of the per-period mean stroke (m/s) over stage `label`."""
+        return metrics.drift(self.trace, period, *self._window(label), skip)
 
     def summary(self) -> dict:
         return {"static_stroke": self.static_stroke, "final_stroke": self.final_stroke,
@@ -94,10 +111,11 @@ class Result:
     # ---------------------------------------------------------------- energy
     def energy_balance(self) -> dict:
         """Cumulative energy terms over the run (J) and the relative residual of
-        E_in = dU_e + dKE + Joule + intra-element + source + damping + load work.
+        E_in = dU_e + dKE + Joule + intra-element + source + damping + load work + impacts.
         'intra' is the redistribution loss of the continuum scheme's uniform-q elements
         (>= 0, vanishing as N grows); 'source' the loss of ideal voltage steps (or of the
-        fictitious series resistor in the paper scheme)."""
+        fictitious series resistor in the paper scheme); 'impact' the kinetic energy lost
+        when a moving mass hits a stop (inelastic)."""
         if not self.has_energy:
             raise ValueError("energy_balance: run simulate(..., energy=True)")
         r0, r1 = self.rec[0], self.rec[-1]
@@ -106,8 +124,9 @@ class Result:
         # from the state just before t = 0: a voltage jump there is booked in E_in and source
         U0 = self.model.diagnostics(self.y0, self.V_before)[0][R_U]
         terms = {"E_in": r1[R_EIN], "dU": r1[R_U] - U0, "dKE": dKE, "joule": r1[R_EJ],
-                 "intra": r1[R_EINTRA], "source": r1[R_ESRC], "damping": r1[R_EDAMP], "load": r1[R_ELOAD]}
-        out = terms["dU"] + dKE + terms["joule"] + terms["intra"] + terms["source"] + terms["damping"] + terms["load"]
+                 "intra": r1[R_EINTRA], "source": r1[R_ESRC], "damping": r1[R_EDAMP], "load": r1[R_ELOAD],
+                 "impact": r1[R_EIMPACT]}
+        out = sum(terms[k] for k in ("dU", "dKE", "joule", "intra", "source", "damping", "load", "impact"))
         terms["residual"] = (terms["E_in"] - out) / max(abs(terms["E_in"]), 1e-300)
         return terms
 

@@ -1,21 +1,23 @@
 """Run the model through a protocol: `simulate()`."""
 from __future__ import annotations
 
+import math
 import time
 import warnings
 
 import numpy as np
 
-from . import dielectrics
+from . import dielectrics, limits
 from .dielectrics import PhysicsWarning
-from .integrator import MAX_STEPS, NONFINITE, OK, STEP_UNDERFLOW, integrate
+from .equations import K, NREC
+from .integrator import MAX_STEPS, NONFINITE, OK, OUTPUT_FULL, STEP_UNDERFLOW, integrate
 from .model import DFAModel
-from .parameters import Parameters
+from .parameters import ParameterError, Parameters
 from .results import Result
 from .waveforms import Load, Protocol, WaveformError, merge
 
 _STATUS = {MAX_STEPS: "the step limit was reached", STEP_UNDERFLOW: "the step size fell below 1e-14 s",
-           NONFINITE: "the solution became non-finite"}
+           NONFINITE: "the solution became non-finite", OUTPUT_FULL: "the output reached its memory limit"}
 
 
 class SolverError(RuntimeError):
@@ -47,7 +49,7 @@ def _as_protocol(protocol, duration) -> Protocol:
 
 
 def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=False, charges=False,
-             rtol=None, x0=0.0, V_before=0.0, y0=None, max_steps=5_000_000, warn=True) -> Result:
+             rtol=None, x0=0.0, V_before=0.0, y0=None, max_steps=limits.MAX_STEPS, warn=True) -> Result:
     """Simulate an actuator.
 
     params    Parameters or DFAModel.
@@ -58,6 +60,11 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
     charges   also keep the element states at every output (the charge distribution).
     y0        initial state (default: uncharged at rest at x0); V_before the voltage
               just before t = 0 (a jump at t = 0 is booked as an instantaneous charge).
+    max_steps the step limit (accepted and rejected steps): the run stops there with
+              SolverError and its partial result.
+
+    Everything is checked before the run (limits.py): the inputs' ranges, the output's
+    memory, and that the stroke's motion is slow enough to resolve.
     """
     model = _as_model(params)
     protocol = _as_protocol(protocol, duration)
@@ -67,32 +74,123 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
     T = protocol.duration
     t, V0, Vs, F0, Fs = merge(protocol.piecewise(), load.piecewise(T))
     mat = model.with_k(load.k_load)
-    y = model.initial_state(x0) if y0 is None else np.array(y0, dtype=float)
-    if y.shape != (model.n,) or not np.all(np.isfinite(y)):
-        raise ValueError(f"y0: expected {model.n} finite values")
-    t_out = np.empty(0) if t_eval is None else np.asarray(t_eval, float)
-    if t_out.size:
-        if np.any(np.diff(t_out) < 0) or t_out[0] < 0 or t_out[-1] > T * (1 + 1e-12):
-            raise ValueError(f"t_eval: expected increasing times within [0, {T:g}] s")
-    rtol = p.rtol if rtol is None else float(rtol)
+    y = _initial(model, x0, y0)
+    V_before = _finite_in("V_before", V_before, limits.MAX_VOLTAGE)
+    max_steps = _count("max_steps", max_steps)
+    t_out = _output_times(t_eval, T, model.n if charges else 0)
+    rtol = p.rtol if rtol is None else _rtol(rtol)
+    check_mechanics(model, mat[K], np.max(np.abs(np.concatenate([V0, V0 + Vs * np.diff(t)]))),
+                    np.max(np.abs(np.concatenate([F0, F0 + Fs * np.diff(t)]))))
     scale = model.scales(protocol.amplitude)
     h0 = min(1e-6, T / 100)
     xc = model.force_jumps()
     wall = time.perf_counter()
     ws, ist = model.workspace(h0)
-    rec, states, stats, y_end = integrate(model.cfg, model.geo, mat, model.law.law_id, model.law.params, y,
-                                          t, V0, Vs, F0, Fs, float(V_before), rtol, scale, t_out,
-                                          bool(energy), bool(charges), int(max_steps), xc, ws, ist, False)
+    rec, states, stats, y_end, trace = integrate(model.cfg, model.geo, mat, model.law.law_id, model.law.params, y,
+                                                 t, V0, Vs, F0, Fs, float(V_before), rtol, scale, t_out,
+                                                 bool(energy), bool(charges), max_steps, xc, ws, ist, False,
+                                                 True, _max_rows(model.n if charges else 0))
     wall = time.perf_counter() - wall
     result = Result(model, protocol, load, rec, states if charges else None, stats, wall, y_end, energy=energy,
-                    y0=y, V_before=float(V_before))
+                    y0=y, V_before=float(V_before), trace=trace)
     status = int(stats[4])
     if status != OK:
-        raise SolverError(f"simulate: stopped at t = {stats[5]:.6g} s of {T:g} s because {_STATUS[status]}; "
-                          f"the partial result is attached as .partial", result)
+        raise SolverError(f"simulate: stopped at t = {stats[5]:.6g} s of {T:g} s because {_STATUS[status]}"
+                          f"{_hint(status, model, max_steps)}; the partial result is attached as .partial", result)
     if warn:
         _physics_warnings(model, result, load)
     return result
+
+
+def _hint(status, model, max_steps):
+    """What to change after a failed run."""
+    p = model.params
+    if status == MAX_STEPS:
+        text = f" ({max_steps:,} steps): raise max_steps (--max-steps), shorten the run"
+        if p.m > 0:
+            text += f", or damp the mechanics (m = {p.m:g} kg, b = {p.b:g} N s/m: a light, weakly damped mass rings fast)"
+        return text
+    if status == OUTPUT_FULL:
+        return f" ({limits.MAX_OUTPUT_BYTES / 2 ** 30:g} GiB): sample the output (t_eval, --dt) or shorten the run"
+    return f": check rtol = {p.rtol:g}, the resistivity law and the inputs (a smaller rtol can help)"
+
+
+def _finite_in(name, value, bound):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: got {value!r}, expected a number") from None
+    if not (math.isfinite(v) and abs(v) <= bound):
+        raise ValueError(f"{name}: got {value!r}, expected a finite number of magnitude <= {bound:g}")
+    return v
+
+
+def _count(name, value):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name}: got {value!r}, expected an integer >= 1")
+    return int(value)
+
+
+def _rtol(value):
+    from .parameters import check_value
+    check_value("rtol", value)
+    return float(value)
+
+
+def _initial(model, x0, y0):
+    """The initial state: uncharged at rest at x0, or y0 (checked)."""
+    x_e = model.kin.x_e
+    if y0 is None:
+        x0 = _finite_in("x0", x0, math.inf)
+        if not 0.0 <= x0 <= x_e:
+            raise ValueError(f"x0: got {x0:g} m, expected a stroke with 0 <= x0 <= x_e = {x_e:.6g} m")
+        return model.initial_state(x0)
+    y = np.array(y0, dtype=float)
+    if y.shape != (model.n,) or not np.all(np.isfinite(y)):
+        raise ValueError(f"y0: expected {model.n} finite values (got shape {y.shape})")
+    if not 0.0 <= y[0] <= x_e:
+        raise ValueError(f"y0: stroke y0[0] = {y[0]:g} m, expected 0 <= y0[0] <= x_e = {x_e:.6g} m")
+    return y
+
+
+def _max_rows(extra_columns):
+    return int(limits.MAX_OUTPUT_BYTES // (8 * (NREC + extra_columns)))
+
+
+def _output_times(t_eval, T, extra_columns):
+    """t_eval as an array, checked (order, span, memory) before anything runs."""
+    if t_eval is None:
+        return np.empty(0)
+    t_out = np.asarray(t_eval, float).ravel()
+    limits.check_rows("t_eval", t_out.size, NREC + extra_columns, "sample more coarsely or shorten the run")
+    if t_out.size and (not np.all(np.isfinite(t_out)) or np.any(np.diff(t_out) < 0) or t_out[0] < 0
+                       or t_out[-1] > T * (1 + 1e-12)):
+        raise ValueError(f"t_eval: expected finite non-decreasing times within [0, {T:g}] s")
+    return t_out
+
+
+def zip_force_per_volt2(model) -> float:
+    """Static zipping force at x = 0 per V^2 (uncharged: the force is exactly ~ V^2)."""
+    from .statics import static_force
+    return abs(float(static_force(model, 0.0, 1.0)))
+
+
+def check_mechanics(model, k_total, V_max, F_max, c_zip=None):
+    """Refuse mechanics too fast to integrate: the stroke must take at least
+    limits.TAU_MECH_MIN to cross its range under the largest force (static zipping force
+    at V_max, load F_max, spring k_total x_e). c_zip: zip_force_per_volt2, if known."""
+    p = model.params
+    x_e = model.kin.x_e
+    F_zip = (zip_force_per_volt2(model) if c_zip is None else c_zip) * V_max * V_max
+    F_s = max(F_zip, abs(F_max), k_total * x_e)
+    if F_s <= 0.0:
+        return
+    tau = max(p.b * x_e / F_s, math.sqrt(p.m * x_e / F_s))
+    if tau < limits.TAU_MECH_MIN:
+        raise ParameterError(
+            f"b: {p.b:g} N s/m (m = {p.m:g} kg) against a force of {F_s:.3g} N (zipping force at {V_max:g} V, "
+            f"load {F_max:g} N, spring {k_total * x_e:.3g} N) moves the stroke across its range in {tau:.2g} s, "
+            f"faster than the solver resolves ({limits.TAU_MECH_MIN:g} s): raise b or m, or lower the voltage or load")
 
 
 def _physics_warnings(model, result, load):

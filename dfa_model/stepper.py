@@ -16,7 +16,9 @@ from .equations import R_ANG, R_C, R_FE, R_I, R_LZ, R_U, R_V, R_X
 from .integrator import GAMMA, OK, integrate
 from .model import DFAModel
 from .parameters import Parameters
-from .solver import _STATUS, SolverError
+from . import limits
+from .equations import K
+from .solver import _STATUS, SolverError, _finite_in, check_mechanics, zip_force_per_volt2
 
 # output name -> record column (units: m, m/s, m, rad, N, A, F, J)
 OUTPUTS = {"stroke": R_X, "velocity": R_V, "zipped_length": R_LZ, "zipping_angle": R_ANG,
@@ -66,6 +68,8 @@ class Stepper:
         self.max_steps = int(max_steps)
         self._scale = self.model.scales(v_nominal)
         self._xc = self.model.force_jumps()
+        self._c_zip = zip_force_per_volt2(self.model)
+        self._checked = (0.0, 0.0)       # inputs last found resolvable (check_mechanics)
         self.n_steps = 0
         self.t = float(t0)               # communication time
         self.V = 0.0                     # inputs applied up to t (uncharged start)
@@ -89,10 +93,11 @@ class Stepper:
         """Integrate from t to t + dt with the voltage (V) and the force (N, opposing
         zipping) held constant; a change from the previous inputs is a jump at t."""
         _finite_positive("dt", dt)
-        for name, val in (("voltage", voltage), ("force", force)):
-            if not math.isfinite(val):
-                raise ValueError(f"{name}: expected a finite number, got {val!r}")
-        V, F = float(voltage), float(force)
+        V = _finite_in("voltage", voltage, limits.MAX_VOLTAGE)
+        F = _finite_in("force", force, limits.MAX_FORCE)
+        if (V, F) != self._checked:
+            check_mechanics(self.model, self.model.mat[K], abs(V), F, self._c_zip)
+            self._checked = (V, F)
         target = self.t + dt
         if self.exact:
             rec, _ = self._integrate(np.array([self.t, target]), V, F, np.array([target]), False)
@@ -115,8 +120,7 @@ class Stepper:
         tp, h, a, b, c = self._poly
         sv = (target - tp) / h
         self.out = a + sv * (b + sv * c)
-        if self.out[0] < 0.0:           # the interpolant dipping below the stop
-            self.out[0] = 0.0
+        self.out[0] = min(max(self.out[0], 0.0), self.model.kin.x_e)   # the interpolant past a stop
         self.t, self.V, self.F = target, V, F
 
     def _redo(self):
@@ -135,13 +139,13 @@ class Stepper:
 
     def _integrate(self, seg_t, V, F, t_out, one_step):
         m = self.model
-        rec, _, stats, y_end = integrate(
+        rec, _, stats, y_end, _ = integrate(
             m.cfg, m.geo, m.mat, m.law.law_id, m.law.params, self.y, seg_t, np.array([V]), np.zeros(1),
             np.array([F]), np.zeros(1), self.V_sol, self.rtol, self._scale, t_out, False, False, self.max_steps,
-            self._xc, self._ws, self._ist, one_step)
+            self._xc, self._ws, self._ist, one_step, False, 1 << 40)
         if int(stats[4]) != OK:
-            raise SolverError(f"step: stopped at t = {stats[5]:.9g} s before {self.t:.9g} s because "
-                              f"{_STATUS[int(stats[4])]}; restore a saved state or reset")
+            raise SolverError(f"step: stopped at t = {stats[5]:.9g} s on the way from {seg_t[0]:.9g} s to "
+                              f"{seg_t[-1]:.9g} s because {_STATUS[int(stats[4])]}; restore a saved state or reset")
         self.y = y_end
         self.n_steps += int(stats[0])
         return rec, stats

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .limits import MAX_DURATION, MAX_FORCE, MAX_VOLTAGE, check_segments
+
 
 class WaveformError(ValueError):
     """Invalid waveform or protocol input (message names the field)."""
@@ -29,6 +31,19 @@ def _finite(name, value, lo=None, lo_incl=True, hi=None):
         raise WaveformError(f"{name}: got {value:g}, expected a value {rng}")
     if hi is not None and value > hi:
         raise WaveformError(f"{name}: got {value:g}, expected a value <= {hi:g}")
+    return value
+
+
+# the bound on the magnitude of each kind of signal (limits.py)
+MAGNITUDE = {"voltage": (MAX_VOLTAGE, "V"), "force": (MAX_FORCE, "N")}
+
+
+def _level(name, value):
+    """A finite signal value within the stated magnitude limit of its kind."""
+    value = _finite(name, value)
+    bound, unit = MAGNITUDE[name]
+    if abs(value) > bound:
+        raise WaveformError(f"{name}: got {value:g} {unit}, expected a magnitude <= {bound:g} {unit}")
     return value
 
 
@@ -100,7 +115,7 @@ class DC(Waveform):
     V: float
 
     def __post_init__(self):
-        self.V = _finite("voltage", self.V)
+        self.V = _level("voltage", self.V)
 
     def piecewise(self, duration):
         return Piecewise(np.array([0.0, duration]), np.array([self.V]), np.zeros(1))
@@ -108,19 +123,15 @@ class DC(Waveform):
 
 def _square(duration, period, levels):
     """Repeat (fraction, level) pieces each period, truncated at duration."""
-    edges, vals = [0.0], []
-    n_per = int(math.ceil(duration / period - 1e-12))
-    for k in range(max(n_per, 1)):
-        acc = 0.0
-        for frac, lev in levels:
-            if frac <= 0:
-                continue
-            acc += frac
-            # breakpoints from k*period + cumulative fraction, computed without drift
-            edges.append(k * period + acc * period)
-            vals.append(lev)
-    t = np.array(edges)
-    v = np.array(vals)
+    levels = [(frac, lev) for frac, lev in levels if frac > 0]
+    n_per = max(int(math.ceil(duration / period - 1e-12)), 1)
+    check_segments("frequency", n_per * len(levels),
+                   f"{1 / period:g} Hz over {duration:g} s; lower the frequency or shorten the run")
+    # breakpoints k*period + cumulative fraction * period, computed without drift
+    acc = np.cumsum([frac for frac, _ in levels])
+    k = np.arange(n_per)[:, None]
+    t = np.concatenate([[0.0], (k * period + acc[None, :] * period).ravel()])
+    v = np.tile([lev for _, lev in levels], n_per).astype(float)
     keep = t[1:] < duration - 1e-12
     n = int(np.sum(keep)) + 1
     t = np.concatenate([t[:n], [duration]])
@@ -129,7 +140,7 @@ def _square(duration, period, levels):
 
 class _Square(Waveform):
     def __post_init__(self):
-        self.V = _finite("voltage", self.V)
+        self.V = _level("voltage", self.V)
         self.frequency = _finite("frequency", self.frequency, 0.0, lo_incl=False, hi=1e6)
         self.duty = _finite("duty", self.duty, 0.0, lo_incl=False, hi=1.0)
 
@@ -179,7 +190,15 @@ class Sampled(Waveform):
             raise WaveformError(f"{self.name}: times and values must be non-empty and of equal length "
                                 f"(got {self.times.size} and {self.values.size})")
         if not (np.all(np.isfinite(self.times)) and np.all(np.isfinite(self.values))):
-            raise WaveformError(f"{self.name}: samples must be finite numbers (found NaN or inf)")
+            bad = int(np.nonzero(~(np.isfinite(self.times) & np.isfinite(self.values)))[0][0])
+            raise WaveformError(f"{self.name}: samples must be finite numbers (sample {bad}: time "
+                                f"{self.times[bad]!r}, value {self.values[bad]!r})")
+        bound, unit = MAGNITUDE.get(self.name, (np.inf, ""))
+        if np.any(np.abs(self.values) > bound):
+            bad = int(np.argmax(np.abs(self.values)))
+            raise WaveformError(f"{self.name}: sample {bad} is {self.values[bad]:g} {unit}, expected a magnitude "
+                                f"<= {bound:g} {unit}")
+        check_segments(self.name, self.times.size)
         if np.any(np.diff(self.times) < 0):
             raise WaveformError(f"{self.name}: sample times must be non-decreasing")
         if self.times[0] > 0:
@@ -227,6 +246,8 @@ class Sampled(Waveform):
 def from_function(fn, duration, dt=1e-3, name="voltage") -> Sampled:
     """Sample a user callable V(t) every dt on [0, duration] (linear in between)."""
     dt = _finite(f"{name} dt", dt, 0.0, lo_incl=False)
+    duration = _finite("duration", duration, 0.0, lo_incl=False, hi=MAX_DURATION)
+    check_segments(f"{name} dt", duration / dt, f"sampling every {dt:g} s over {duration:g} s; use a larger dt")
     n = int(math.ceil(duration / dt)) + 1
     t = np.linspace(0.0, duration, n)
     try:
@@ -253,7 +274,10 @@ class Protocol:
         if not self.stages:
             raise WaveformError("protocol: needs at least one stage")
         for s in self.stages:
-            s.duration = _finite(f"duration of stage {s.label or '?'}", s.duration, 0.0, lo_incl=False, hi=1e7)
+            s.duration = _finite(f"duration of stage {s.label or '?'}", s.duration, 0.0, lo_incl=False,
+                                 hi=MAX_DURATION)
+        if self.duration > MAX_DURATION:
+            raise WaveformError(f"duration: the stages add up to {self.duration:g} s, expected <= {MAX_DURATION:g} s")
 
     @property
     def duration(self):
@@ -308,9 +332,11 @@ class Load:
     dt: float = 1e-3
 
     def __post_init__(self):
-        self.k_load = _finite("k_load", self.k_load, 0.0)
-        if not (callable(self.F) or isinstance(self.F, Sampled)):
-            self.F = _finite("force", self.F)
+        self.k_load = _finite("k_load", self.k_load, 0.0, hi=1e9)
+        if isinstance(self.F, Sampled) and self.F.name != "force":
+            self.F = Sampled(self.F.times, self.F.values, self.F.hold, name="force")
+        elif not (callable(self.F) or isinstance(self.F, Sampled)):
+            self.F = _level("force", self.F)
 
     def piecewise(self, duration) -> Piecewise:
         if isinstance(self.F, Sampled):
