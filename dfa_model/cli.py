@@ -1,13 +1,27 @@
-"""The `dfa` command (see README, 'Command line')."""
+"""The `dfa` command (see README, 'Command line' and 'Reliability').
+
+Every input is checked before any work starts: flags, parameters, output paths, and
+resource limits (limits.py). Bad input prints one line, `dfa: error: ...`, naming the
+flag or key and its valid range, and exits with status 2. Physics outside the model's
+comfort zone prints `dfa: warning: ...` and still returns a result. Anything else is a
+bug: one line `dfa: internal error: ...` and status 70 (the traceback with DFA_DEBUG=1).
+"""
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
+import re
 import sys
 import warnings
 
-from . import parameters
+from . import limits, parameters
 from .dielectrics import PhysicsWarning
+from .fileio import PLOT_FORMATS, OutputError, check_writable
+
+EXIT_USAGE, EXIT_SOFTWARE = 2, 70
+SCHEDULER_TIMEOUT = 10.0     # s to reach a dask scheduler
 
 
 class CLIError(Exception):
@@ -15,8 +29,34 @@ class CLIError(Exception):
 
 
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # "-1e6", "-inf" are values, not options (argparse only knew "-1" and "-1.5")
+        self._negative_number_matcher = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
+
     def error(self, message):  # one line, no usage dump
         raise CLIError(message)
+
+
+def _number(lo=None, hi=None, lo_open=False, integer=False):
+    """argparse type: a finite number in range, with the range in the error."""
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"got {text!r}, expected a number") from None
+        rng = []
+        if lo is not None:
+            rng.append(f"{'>' if lo_open else '>='} {lo:g}")
+        if hi is not None:
+            rng.append(f"<= {hi:g}")
+        want = ("an integer" if integer else "a finite number") + (" " + " and ".join(rng) if rng else "")
+        bad = (not math.isfinite(v) or (integer and v != int(v)) or (lo is not None and (v < lo or (lo_open and v == lo)))
+               or (hi is not None and v > hi))
+        if bad:
+            raise argparse.ArgumentTypeError(f"got {text}, expected {want}")
+        return int(v) if integer else v
+    return parse
 
 
 def _params(args):
@@ -38,6 +78,8 @@ def _protocol(args):
 
 
 def cmd_params(args):
+    if args.params and args.preset:
+        raise CLIError("give either --preset or --params, not both")
     if args.params:
         text = parameters.load(args.params).to_toml()
     else:
@@ -45,24 +87,39 @@ def cmd_params(args):
     sys.stdout.write(text)
 
 
-def cmd_simulate(args):
+def _output_times(duration, dt):
+    """Output times every dt over [0, duration] (and the end), after the memory check."""
     import numpy as np
 
-    from .solver import simulate
+    from .equations import NREC
+    n = math.floor(duration / dt + 1e-9)
+    limits.check_rows("--dt", n + 2, NREC, f"--dt {dt:g} s over {duration:g} s; use a larger --dt, or 0 for "
+                                           "the solver's own steps")
+    return np.append(np.arange(n + 1) * dt, [] if abs(n * dt - duration) < 1e-12 else [duration])
+
+
+def cmd_simulate(args):
+    from .solver import SolverError, simulate
     p = _params(args)
     proto = _protocol(args)
-    if args.dt is not None and not (args.dt > 0):
-        raise CLIError(f"--dt: got {args.dt:g}, expected a value > 0 (s)")
-    t_eval = None
-    if args.dt:
-        n = int(np.floor(proto.duration / args.dt + 1e-9))
-        t_eval = np.append(np.arange(n + 1) * args.dt, [] if abs(n * args.dt - proto.duration) < 1e-12 else [proto.duration])
-    res = simulate(p, proto, load=args.force, t_eval=t_eval)
     if args.out:
-        src = f"preset {args.preset}" if args.preset else f"params {args.params}"
-        res.to_csv(args.out, comment=f"{src} {' '.join(args.set or [])}; voltage {args.voltage:g} V, "
-                                     f"force {args.force:g} N, waveform {args.waveform}, reset {args.reset or 0:g} s, "
-                                     f"duration {args.duration:g} s")
+        check_writable("--out", args.out)
+    if args.plot:
+        check_writable("--plot", args.plot, PLOT_FORMATS)
+    t_eval = _output_times(proto.duration, args.dt) if args.dt else None
+    src = f"preset {args.preset}" if args.preset else f"params {args.params}"
+    comment = (f"{src} {' '.join(args.set or [])}; voltage {args.voltage:g} V, force {args.force:g} N, waveform "
+               f"{args.waveform}, reset {args.reset or 0:g} s, duration {args.duration:g} s")
+    try:
+        res = simulate(p, proto, load=args.force, t_eval=t_eval, max_steps=args.max_steps)
+    except SolverError as exc:
+        part = exc.partial
+        if args.out and part is not None and part.t.size:     # never lose what was computed
+            part.to_csv(args.out, comment=comment + f"\nPARTIAL: {exc}")
+            raise CLIError(f"{exc}; the partial result (up to t = {part.t[-1]:.6g} s) is in {args.out}") from None
+        raise
+    if args.out:
+        res.to_csv(args.out, comment=comment)
     if args.plot:
         res.plot(args.plot)
     if args.json:
@@ -77,26 +134,48 @@ def cmd_simulate(args):
               file=sys.stderr)
 
 
+def _dask_executor(address):
+    """A dask.distributed client for `address`, or a one-line error within SCHEDULER_TIMEOUT."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise CLIError("--scheduler: dask.distributed is not installed; pip install 'dfa-toolkit[dask]'") from None
+    try:
+        return Client(address, timeout=SCHEDULER_TIMEOUT)
+    except Exception as exc:   # OSError, TimeoutError, ValueError for a malformed address
+        detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise CLIError(f"--scheduler: cannot reach {address!r} within {SCHEDULER_TIMEOUT:g} s ({detail})") from None
+
+
 def cmd_sweep(args):
     from . import sweep
     p = _params(args)
+    if args.out:
+        check_writable("--out", args.out)
     settings = {"voltage": args.voltage, "force": args.force, "waveform": args.waveform, "frequency": args.frequency,
                 "duty": args.duty, "reset": args.reset, "reset_frequency": args.reset_frequency,
                 "duration": args.duration}
-    cases = sweep.grid(p, settings, **sweep.parse_vary(args.vary))
-    executor = None
-    client = None
-    if args.scheduler:
-        from dask.distributed import Client
-        client = Client(args.scheduler)
-        executor = client.get_executor()
+    axes = sweep.parse_vary(args.vary)
+    cases = sweep.grid(p, settings, **axes)
+    # a protocol no case changes is checked once, here; varied values are reported per case
+    if not set(axes) & {"voltage", "duration", "waveform", "frequency", "duty", "reset", "reset_frequency"}:
+        _protocol(args)
+    client = _dask_executor(args.scheduler) if args.scheduler else None
     try:
-        rows = sweep.run(cases, executor=executor, max_workers=args.workers, progress=not args.quiet)
+        rows = sweep.run(cases, executor=client.get_executor() if client else None, max_workers=args.workers,
+                         progress=not args.quiet)
     finally:
         if client is not None:
             client.close()
     if args.out:
-        sweep.write_csv(rows, args.out)
+        try:
+            sweep.write_csv(rows, args.out)
+        except OSError as exc:         # the runs are done: keep their results
+            import tempfile
+            fd, keep = tempfile.mkstemp(prefix="dfa_sweep_", suffix=".csv")
+            os.close(fd)
+            sweep.write_csv(rows, keep)
+            raise CLIError(f"--out: cannot write {args.out} ({exc.strerror}); the results are in {keep}") from None
     failed = [r for r in rows if r["status"] != "ok"]
     for r in rows:
         if r["status"] == "ok":
@@ -117,12 +196,36 @@ def cmd_fmu_build(args):
     if not args.preset and not args.params:
         args.preset = "vshape-table1"
     p = _params(args)
+    check_writable("--out", args.out, ("fmu",))
     try:
         out = build_fmu(p, args.out)
     except BuildError as exc:
         raise CLIError(str(exc)) from None
     print(f"wrote {out} (FMI 2.0 co-simulation; inputs voltage, force; parameters from "
           f"{args.params or 'preset ' + args.preset})")
+
+
+def _add_protocol_flags(ps):
+    V = limits.MAX_VOLTAGE
+    ps.add_argument("--voltage", type=_number(-V, V), required=True, help="amplitude, V")
+    ps.add_argument("--force", type=_number(-limits.MAX_FORCE, limits.MAX_FORCE), default=0.0,
+                    help="load opposing zipping, N (default 0)")
+    ps.add_argument("--waveform", choices=["dc", "bipolar", "unipolar"], default="dc")
+    ps.add_argument("--frequency", type=_number(0.0, 1e6, lo_open=True), help="square-wave frequency, Hz")
+    ps.add_argument("--duty", type=_number(0.0, 1.0, lo_open=True),
+                    help="duty (bipolar: fraction of each half period on, default 1; unipolar: default 0.5)")
+    ps.add_argument("--reset", type=_number(0.0, limits.MAX_DURATION), default=0.0, metavar="SECONDS",
+                    help="charge reset first: bipolar square wave at the same voltage (Sec. 4.2)")
+    ps.add_argument("--reset-frequency", type=_number(0.0, 1e6, lo_open=True), metavar="HZ",
+                    help="frequency of the reset (default 30 Hz; only with --reset)")
+    ps.add_argument("--duration", type=_number(0.0, limits.MAX_DURATION, lo_open=True),
+                    help="seconds of the hold stage (after any reset)")
+
+
+def _add_params_flags(ps, preset_help=None):
+    ps.add_argument("--preset", choices=list(parameters.PRESETS), help=preset_help)
+    ps.add_argument("--params", metavar="FILE")
+    ps.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable)")
 
 
 def build_parser():
@@ -134,39 +237,22 @@ def build_parser():
     pp.set_defaults(func=cmd_params)
 
     ps = sub.add_parser("simulate", help="simulate a protocol; write CSV, plot, JSON metrics")
-    ps.add_argument("--preset", choices=list(parameters.PRESETS))
-    ps.add_argument("--params", metavar="FILE")
-    ps.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable)")
-    ps.add_argument("--voltage", type=float, required=True, help="amplitude, V")
-    ps.add_argument("--force", type=float, default=0.0, help="load opposing zipping, N (default 0)")
-    ps.add_argument("--waveform", choices=["dc", "bipolar", "unipolar"], default="dc")
-    ps.add_argument("--frequency", type=float, help="square-wave frequency, Hz")
-    ps.add_argument("--duty", type=float, help="duty (bipolar: fraction of each half period on, default 1)")
-    ps.add_argument("--reset", type=float, default=0.0, metavar="SECONDS",
-                    help="charge reset first: bipolar square wave at the same voltage (Sec. 4.2)")
-    ps.add_argument("--reset-frequency", type=float, default=30.0, metavar="HZ")
-    ps.add_argument("--duration", type=float, help="seconds of the hold stage (after any reset)")
-    ps.add_argument("--dt", type=float, default=1e-3, help="output sampling, s (default 1e-3; 0: every step)")
+    _add_params_flags(ps)
+    _add_protocol_flags(ps)
+    ps.add_argument("--dt", type=_number(0.0), default=1e-3, help="output sampling, s (default 1e-3; 0: every step)")
+    ps.add_argument("--max-steps", type=_number(1, 1e9, integer=True), default=limits.MAX_STEPS,
+                    help=f"step limit (default {limits.MAX_STEPS:,}): the run stops there with its partial result")
     ps.add_argument("--out", metavar="FILE.csv")
     ps.add_argument("--plot", metavar="FILE.png")
     ps.add_argument("--json", action="store_true", help="print metrics as one JSON object")
     ps.set_defaults(func=cmd_simulate)
 
     pw = sub.add_parser("sweep", help="run a grid of variants in parallel (local processes or Dask)")
-    pw.add_argument("--preset", choices=list(parameters.PRESETS))
-    pw.add_argument("--params", metavar="FILE")
-    pw.add_argument("--set", action="append", metavar="KEY=VALUE")
+    _add_params_flags(pw)
     pw.add_argument("--vary", action="append", metavar="KEY=V1,V2,...",
                     help="a parameter key, or voltage/force/reset/duration/frequency/duty/theta0 (repeatable: grid)")
-    pw.add_argument("--voltage", type=float, required=True)
-    pw.add_argument("--force", type=float, default=0.0)
-    pw.add_argument("--waveform", choices=["dc", "bipolar", "unipolar"], default="dc")
-    pw.add_argument("--frequency", type=float)
-    pw.add_argument("--duty", type=float)
-    pw.add_argument("--reset", type=float, default=0.0)
-    pw.add_argument("--reset-frequency", type=float, default=30.0)
-    pw.add_argument("--duration", type=float)
-    pw.add_argument("--workers", type=int, help="local processes (default: all cores)")
+    _add_protocol_flags(pw)
+    pw.add_argument("--workers", type=_number(1, 1024, integer=True), help="local processes (default: all cores)")
     pw.add_argument("--scheduler", metavar="ADDRESS", help="run on a dask.distributed scheduler")
     pw.add_argument("--out", metavar="FILE.csv", help="one row per variant: varied values, metrics, status")
     pw.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -175,9 +261,7 @@ def build_parser():
     pf = sub.add_parser("fmu", help="FMI 2.0 co-simulation FMU of the model")
     fsub = pf.add_subparsers(dest="fmu_command", parser_class=_Parser, required=True)
     pb = fsub.add_parser("build", help="build the FMU (parameter start values from a preset or file)")
-    pb.add_argument("--preset", choices=list(parameters.PRESETS), help="default: vshape-table1")
-    pb.add_argument("--params", metavar="FILE")
-    pb.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable)")
+    _add_params_flags(pb, "default: vshape-table1")
     pb.add_argument("--out", metavar="FILE.fmu", default="DFAActuator.fmu")
     pb.set_defaults(func=cmd_fmu_build)
     return ap
@@ -191,7 +275,7 @@ def main(argv=None):
         args = ap.parse_args(argv)
         if not getattr(args, "command", None):
             ap.print_help()
-            return 2
+            return EXIT_USAGE
         if getattr(args, "dt", None) == 0:
             args.dt = None
         with warnings.catch_warnings():
@@ -199,12 +283,25 @@ def main(argv=None):
             warnings.showwarning = lambda m, c, *a, **k: print(f"dfa: warning: {m}", file=sys.stderr)
             rc = args.func(args)
         return rc or 0
-    except (CLIError, parameters.ParameterError, WaveformError, SolverError, ValueError) as exc:
+    except (CLIError, parameters.ParameterError, WaveformError, SolverError, OutputError, ValueError) as exc:
         print(f"dfa: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
+    except OSError as exc:            # a file that vanished or a full disk after the checks
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"dfa: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except MemoryError:
+        print("dfa: error: out of memory (see the limits in README, 'Reliability')", file=sys.stderr)
+        return EXIT_USAGE
     except KeyboardInterrupt:
         print("dfa: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:          # a bug: one line for users, the traceback on request
+        if os.environ.get("DFA_DEBUG"):
+            raise
+        print(f"dfa: internal error: {type(exc).__name__}: {exc} (a bug: please report it; DFA_DEBUG=1 shows "
+              f"the traceback)", file=sys.stderr)
+        return EXIT_SOFTWARE
 
 
 if __name__ == "__main__":

@@ -85,7 +85,10 @@ class LinearResistivity(ResistivityLaw):
 
     @property
     def E_clip(self) -> float:
-        """|E_l| above which the floor is active (inf if never)."""
+        """|E_l| above which the floor is active: inf if never, 0 if at every field
+        (q_rho <= rho_min)."""
+        if self.q_rho <= self.rho_min:
+            return 0.0
         if self.m_rho >= 0:
             return np.inf
         return (self.rho_min - self.q_rho) / self.m_rho
@@ -105,9 +108,10 @@ def from_parameters(p) -> ResistivityLaw:
 
 def warn_if_clipped(law: ResistivityLaw, E_abs_max: float) -> bool:
     if law.clipped(E_abs_max):
-        warnings.warn(f"resistivity law clipped: |E_l| reached {E_abs_max:.3g} V/m, above {law.E_clip:.3g} V/m "
-                      f"where {law!r} falls to its floor rho_min; results use rho_l = rho_min there",
-                      PhysicsWarning, stacklevel=3)
+        where = (f"at every field (q_rho = {law.q_rho:g} <= rho_min = {law.rho_min:g})" if law.E_clip == 0 else
+                 f"above |E_l| = {law.E_clip:.3g} V/m")
+        warnings.warn(f"resistivity law clipped: {law!r} is at its floor rho_min {where}, and |E_l| reached "
+                      f"{E_abs_max:.3g} V/m; results use rho_l = rho_min there", PhysicsWarning, stacklevel=3)
         return True
     return False
 

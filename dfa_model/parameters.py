@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from types import SimpleNamespace
 
 EPS0 = 8.8541878128e-12  # vacuum permittivity, F/m
 
@@ -73,6 +75,12 @@ SPEC: dict[str, Spec] = {
     "rho_min": Spec("resistivity", "ohm m", "floor at which the linear law is clipped", 0.0, 1e25),
 }
 TABLES = ("geometry", "materials", "mechanics", "discretization", "resistivity")
+# keys a parameter file must give (others have documented defaults: k = 0, the scheme,
+# rtol, rho_t_s, and the constant law); a and volume by layout
+REQUIRED = ("l", "w", "l_e", "t_f", "t_lz", "eps_r_f", "eps_r_l", "rho_f", "rho_l", "b", "m", "N")
+# the smallest initial angle theta_0: flatter pouches have a stroke range of microns and
+# a lever dl_z/dx of thousands, so forces of 1e5 N at working voltages
+THETA0_MIN_DEG = 1.0
 
 
 @dataclass(frozen=True)
@@ -105,6 +113,12 @@ class Parameters:
 
     def __post_init__(self):
         validate(self)
+        # one representation per value: integers for integer keys (81.0 in a file, or a
+        # NumPy integer, becomes 81), floats for the others
+        for key, spec in SPEC.items():
+            value = getattr(self, key)
+            if value is not None and spec.kind is not str:
+                object.__setattr__(self, key, spec.kind(value))
 
     # derived quantities -------------------------------------------------
     @property
@@ -135,8 +149,17 @@ class Parameters:
         return PeanoHasel(self).theta0
 
     def replace(self, **changes) -> "Parameters":
-        """A copy with some keys changed (validated)."""
-        return dataclasses.replace(self, **changes)
+        """A copy with some keys changed (validated). Changing a key that does not apply
+        to the copy's layout, scheme or law (`a` on a peano-hasel pouch, `m_rho` with the
+        constant law) is an error: it would have no effect."""
+        for key in changes:
+            if key != "layout" and key not in SPEC:
+                raise ParameterError(f"{key}: unknown key; valid keys are layout, {', '.join(SPEC)}")
+        new = dataclasses.replace(self, **changes)
+        for key, value in changes.items():
+            if value is not None and key in SPEC and not applies(new, key):
+                raise ParameterError(not_applicable(new, key))
+        return new
 
     def with_theta0(self, theta0_deg: float, clip_electrode: bool = True) -> "Parameters":
         """V-shaped copy with the semi-aperture set for an initial angle theta_0 (deg).
@@ -144,7 +167,11 @@ class Parameters:
         With `clip_electrode`, l_e is shortened to fit l_e <= l - a if needed (large
         angles): the front never gets near there, so the dynamics are unaffected."""
         if self.layout != "v-shaped":
-            raise ParameterError("with_theta0: only for layout 'v-shaped'")
+            raise ParameterError("theta0: applies only to layout 'v-shaped' (a peano-hasel pouch's angle "
+                                 "follows from its volume)")
+        if isinstance(theta0_deg, bool) or not isinstance(theta0_deg, numbers.Real) or \
+                not THETA0_MIN_DEG <= theta0_deg < 180.0:
+            raise ParameterError(f"theta0: got {theta0_deg!r}, expected {THETA0_MIN_DEG:g} <= value < 180 (deg)")
         a = self.l * math.sin(math.radians(theta0_deg) / 2.0)
         l_e = min(self.l_e, 0.999 * (self.l - a)) if clip_electrode else self.l_e
         return self.replace(a=a, l_e=l_e)
@@ -198,6 +225,15 @@ def applies(p, key: str) -> bool:
     return True
 
 
+def not_applicable(p, key: str) -> str:
+    """The error message for a key given where it takes no part (see applies)."""
+    why = {"a": f"layout {p.layout!r} (peano-hasel pouches use volume)",
+           "volume": f"layout {p.layout!r} (v-shaped actuators use a)",
+           "rho_t_s": f"scheme {p.scheme!r} (only the 'paper' scheme has the series resistance)"}
+    reason = why.get(key, f"law {p.law!r} (m_rho, q_rho and rho_min belong to law = 'linear')")
+    return f"{SPEC[key].table}.{key}: does not apply to {reason}; remove it, or change that setting"
+
+
 def validate(p: Parameters) -> None:
     """Raise ParameterError naming the first bad key and its valid range."""
     check_value("layout", p.layout)
@@ -208,9 +244,15 @@ def validate(p: Parameters) -> None:
                 raise ParameterError(f"{key}: missing; {spec.table}.{key} is required for layout {p.layout!r}: {spec.range_text()}")
             continue
         check_value(key, value, spec)
+    th_min = math.radians(THETA0_MIN_DEG)
     if p.layout == "v-shaped":
         if p.a >= p.l:
             raise ParameterError(f"a: semi-aperture {p.a:g} m must be smaller than l = {p.l:g} m")
+        a_min = p.l * math.sin(th_min / 2)
+        if p.a < a_min:
+            raise ParameterError(f"a: semi-aperture {p.a:g} m makes the pouch nearly flat (theta_0 = "
+                                 f"{math.degrees(2 * math.asin(p.a / p.l)):.3g} deg); need theta_0 >= "
+                                 f"{THETA0_MIN_DEG:g} deg, a >= {a_min:.4g} m for l = {p.l:g} m")
         if p.l_e > p.l - p.a:
             raise ParameterError(f"l_e: electrode length {p.l_e:g} m must be <= l - a = {p.l - p.a:g} m")
     else:
@@ -219,6 +261,11 @@ def validate(p: Parameters) -> None:
         if lz_max <= 0:
             raise ParameterError(f"volume: {p.volume:g} m^3 does not fit a pouch of l = {p.l:g} m, w = {p.w:g} m; "
                                  f"need volume < w l^2 / pi = {p.w * p.l ** 2 / math.pi:.4g} m^3")
+        # the liquid cross-section at theta_0 (Eq. 22 with the chord, kinematics.py)
+        v_min = p.w * p.l ** 2 / 2 * (th_min - math.sin(th_min) * math.cos(th_min)) / th_min ** 2
+        if p.volume < v_min:
+            raise ParameterError(f"volume: {p.volume:g} m^3 leaves the pouch nearly flat; need theta_0 >= "
+                                 f"{THETA0_MIN_DEG:g} deg, volume >= {v_min:.4g} m^3 for l = {p.l:g} m, w = {p.w:g} m")
         if p.l_e >= lz_max:
             raise ParameterError(f"l_e: electrode length {p.l_e:g} m must be < {lz_max:.4g} m, the zipped length "
                                  f"at which the pouch becomes circular (l - sqrt(pi volume / w))")
@@ -236,11 +283,11 @@ def check_value(key: str, value, spec: Spec | None = None) -> None:
         if value not in spec.choices:
             raise ParameterError(f"{key}: got {value!r}, expected {spec.range_text()}")
         return
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ParameterError(f"{key}: got {value!r}, expected {spec.range_text()}")
-    if spec.kind is int and int(value) != value:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ParameterError(f"{key}: got {value!r}, expected {spec.range_text()}")
     if not math.isfinite(value):
+        raise ParameterError(f"{key}: got {value!r}, expected {spec.range_text()}")
+    if spec.kind is int and int(value) != value:
         raise ParameterError(f"{key}: got {value!r}, expected {spec.range_text()}")
     bad_lo = spec.lo is not None and (value < spec.lo or (value == spec.lo and not spec.lo_incl))
     bad_hi = spec.hi is not None and value > spec.hi
@@ -262,11 +309,8 @@ def coerce(key: str, text: str):
         value = float(text)
     except ValueError:
         raise ParameterError(f"{key}: got {text!r}, expected {spec.range_text()}") from None
-    if spec.kind is int:
-        if value != int(value):
-            raise ParameterError(f"{key}: got {text!r}, expected {spec.range_text()}")
-        value = int(value)
-    return key, value
+    check_value(key, value, spec)
+    return key, spec.kind(value)
 
 
 def from_dict(data: dict, source: str = "parameters") -> Parameters:
@@ -288,11 +332,18 @@ def from_dict(data: dict, source: str = "parameters") -> Parameters:
                 valid = [k for k, s in SPEC.items() if s.table == table]
                 raise ParameterError(f"{table}.{key}: unknown key in {source}; valid keys in [{table}] are {', '.join(valid)}")
             flat[key] = value
-    required = ["l", "w", "l_e", "t_f", "t_lz", "eps_r_f", "eps_r_l", "rho_f", "rho_l", "b", "N",
-                "a" if layout == "v-shaped" else "volume"]
-    for key in required:
+    for key in (*REQUIRED, "a" if layout == "v-shaped" else "volume"):
         if key not in flat:
             raise ParameterError(f"{SPEC[key].table}.{key}: missing in {source}; expected {SPEC[key].range_text()}")
+    # a key that takes no part would be silently ignored: refuse it (applies() needs
+    # the file's own scheme and law, so check them first)
+    for key in ("scheme", "law"):
+        if key in flat:
+            check_value(key, flat[key])
+    setting = SimpleNamespace(layout=layout, scheme=flat.get("scheme", "continuum"), law=flat.get("law", "constant"))
+    for key in flat:
+        if key != "layout" and not applies(setting, key):
+            raise ParameterError(not_applicable(setting, key) + f" (in {source})")
     if layout == "v-shaped":
         flat.setdefault("volume", None)
     else:
@@ -334,6 +385,8 @@ def apply_sets(p: Parameters, assignments) -> Parameters:
             raise ParameterError(f"--set: expected KEY=VALUE, got {item!r}")
         key, text = item.split("=", 1)
         key, value = coerce(key.strip(), text.strip())
+        if key in changes:
+            raise ParameterError(f"--set: {key} given twice ({changes[key]!r} and {value!r})")
         changes[key] = value
     if "layout" in changes and changes["layout"] != p.layout:
         raise ParameterError("layout: cannot be changed with --set; use a parameter file")

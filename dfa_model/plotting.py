@@ -35,7 +35,10 @@ def plot_result(res, path=None, title=None):
         a.grid(alpha=0.3)
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
+        from .fileio import write_atomic
+        try:
+            write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=120))
+        finally:
+            plt.close(fig)
         return None
     return fig

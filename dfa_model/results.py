@@ -4,13 +4,13 @@ from __future__ import annotations
 import csv
 import io
 import json
-from pathlib import Path
 
 import numpy as np
 
 from . import metrics
 from .equations import (R_ANG, R_C, R_EDAMP, R_EIMPACT, R_EIN, R_EINTRA, R_EJ, R_ELOAD, R_EMAX, R_ESRC, R_F, R_FE,
                         R_I, R_LZ, R_Q, R_T, R_U, R_V, R_VOLT, R_X)
+from .fileio import write_text_atomic
 from .trace import StrokeTrace
 
 CSV_COLUMNS = ["time", "voltage", "force", "stroke", "current", "velocity", "zipped_length",
@@ -153,7 +153,7 @@ class Result:
         text = buf.getvalue()
         if path is None:
             return text
-        Path(path).write_text(text)
+        write_text_atomic(path, text)
         return None
 
     def to_json(self) -> str:

@@ -194,19 +194,30 @@ def check_mechanics(model, k_total, V_max, F_max, c_zip=None):
 
 
 def _physics_warnings(model, result, load):
+    """Warnings on what the run did, stated from the solver's record (the trace for the
+    stroke, so no sampling hides a peak)."""
     dielectrics.warn_if_clipped(model.law, float(np.max(result.E_max)) if result.t.size else 0.0)
-    x = result.x
-    if x.size < 2:
-        return
     x_e = model.kin.x_e
     on = np.abs(result.V) > 0
-    if np.any(on) and np.max(x[on]) < 1e-3 * x_e:
-        warnings.warn("the actuator did not zip: the electrostatic force at x = 0 never exceeded the load "
-                      "(voltage too low or force too high)", PhysicsWarning, stacklevel=3)
-    elif np.any(on):
-        peak = np.max(x)
-        if peak > 1e-3 * x_e and x[-1] < 1e-3 * x_e and abs(result.V[-1]) > 0:
-            warnings.warn("the actuator fully unzipped under voltage (the load exceeded the decaying "
-                          "electrostatic force)", PhysicsWarning, stacklevel=3)
-    if np.max(x) >= x_e * (1 - 1e-6):
-        warnings.warn("the zipping front reached the electrode end (l_z = l_e)", PhysicsWarning, stacklevel=3)
+    if not np.any(on):
+        return
+    peak = result.peak_stroke
+    if peak < 1e-3 * x_e:
+        # at rest near x = 0, the load there is F (the spring adds k x ~ 0)
+        margin = float(np.max(result.Fe[on] - result.F[on]))
+        if margin <= 0:
+            warnings.warn(f"the actuator did not zip: the electrostatic force at x = 0 (at most "
+                          f"{float(np.max(result.Fe[on])):.3g} N) never exceeded the load (at least "
+                          f"{float(np.min(result.F[on])):.3g} N); raise the voltage or lower the load",
+                          PhysicsWarning, stacklevel=3)
+        else:
+            warnings.warn(f"the actuator barely moved: the peak stroke {peak:.3g} m is below 0.1 % of its range "
+                          f"x_e = {x_e:.3g} m, although the zipping force exceeded the load by up to {margin:.3g} N "
+                          f"(high damping b = {model.params.b:g} N s/m, a stiff spring or a short run)",
+                          PhysicsWarning, stacklevel=3)
+    elif result.final_stroke < 1e-3 * x_e and abs(result.V[-1]) > 0:
+        warnings.warn("the actuator fully unzipped under voltage (the load exceeded the decaying "
+                      "electrostatic force)", PhysicsWarning, stacklevel=3)
+    if peak >= x_e * (1 - 1e-9):
+        warnings.warn(f"the stroke reached its stop at x_e = {x_e:.6g} m: the zipping front is at the electrode "
+                      f"end, where the electrostatic force vanishes", PhysicsWarning, stacklevel=3)

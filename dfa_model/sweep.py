@@ -21,6 +21,7 @@ import warnings
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 
+from .fileio import write_atomic
 from .parameters import SPEC, Parameters, coerce
 from .waveforms import build_protocol
 
@@ -47,6 +48,9 @@ def grid(base: Parameters, settings: dict, **axes) -> list[Case]:
         if n not in SPEC and n not in SETTINGS:
             raise ValueError(f"{n}: cannot be varied; use a parameter key ({', '.join(SPEC)}) or one of "
                              f"{', '.join(SETTINGS)}")
+        if len(axes[n]) == 0:
+            raise ValueError(f"{n}: no values to vary over")
+    _check_applicable(base, axes)
     cases = []
     for values in itertools.product(*(axes[n] for n in names)):
         varied = dict(zip(names, values))
@@ -54,6 +58,22 @@ def grid(base: Parameters, settings: dict, **axes) -> list[Case]:
         cases.append(Case(label or "base", base, {**settings, **{k: v for k, v in varied.items() if k in SETTINGS}},
                           varied))
     return cases
+
+
+def _check_applicable(base: Parameters, axes: dict) -> None:
+    """An axis that no case can use (theta0 of a peano-hasel pouch, m_rho without the
+    linear law in any case) is a setup error, reported once before anything runs."""
+    from types import SimpleNamespace
+
+    from .parameters import applies, not_applicable
+    if "theta0" in axes and base.layout != "v-shaped":
+        raise ValueError("theta0: applies only to layout 'v-shaped' (a peano-hasel pouch's angle follows from "
+                         "its volume); vary volume instead")
+    combos = [SimpleNamespace(layout=base.layout, scheme=s, law=w)
+              for s in axes.get("scheme", [base.scheme]) for w in axes.get("law", [base.law])]
+    for key in axes:
+        if key in SPEC and not any(applies(c, key) for c in combos):
+            raise ValueError(not_applicable(combos[0], key))
 
 
 def run_case(case: Case) -> dict:
@@ -69,7 +89,7 @@ def run_case(case: Case) -> dict:
         if s.get("theta0") is not None:
             p = p.with_theta0(float(s["theta0"]))
         proto = build_protocol(s.get("voltage"), s.get("duration"), s.get("waveform", "dc"), s.get("frequency"),
-                               s.get("duty"), s.get("reset", 0.0), s.get("reset_frequency", 30.0))
+                               s.get("duty"), s.get("reset", 0.0), s.get("reset_frequency"))
         from .solver import simulate
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -117,11 +137,13 @@ def write_csv(rows, path) -> None:
         for k in r:
             if k not in keys and k != "traceback":
                 keys.append(k)
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow(r)
+    def write(tmp):
+        with open(tmp, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
+            w.writeheader()
+            for r in rows:
+                w.writerow(r)
+    write_atomic(path, write)
 
 
 def parse_vary(items) -> dict:
@@ -132,6 +154,8 @@ def parse_vary(items) -> dict:
             raise ValueError(f"--vary: expected KEY=V1,V2,..., got {item!r}")
         key, vals = item.split("=", 1)
         key = key.strip()
+        if key in axes:
+            raise ValueError(f"--vary: {key} given twice; give all its values in one --vary {key}=V1,V2,...")
         if key in SETTINGS:
             if key == "waveform":
                 axes[key] = [v.strip() for v in vals.split(",")]

@@ -351,12 +351,19 @@ class Load:
 
 
 def build_protocol(voltage, duration, waveform="dc", frequency=None, duty=None, reset=0.0,
-                   reset_frequency=30.0) -> Protocol:
-    """The CLI's protocol: optional charge reset (bipolar, 100 % duty, at `voltage`),
-    then `duration` s of `waveform` ('dc', 'bipolar' or 'unipolar')."""
+                   reset_frequency=None) -> Protocol:
+    """The CLI's protocol: optional charge reset (bipolar, 100 % duty, at `voltage`,
+    `reset_frequency` Hz, default 30), then `duration` s of `waveform` ('dc', 'bipolar'
+    or 'unipolar'). A setting that would have no effect (a frequency or duty on a DC
+    hold, a reset frequency without a reset) is an error."""
     if duration is None:
         raise WaveformError("duration: required (seconds of the hold stage, after any reset)")
+    if voltage is None:
+        raise WaveformError("voltage: required (amplitude, V)")
     if waveform == "dc":
+        for name, value in (("frequency", frequency), ("duty", duty)):
+            if value is not None:
+                raise WaveformError(f"--{name}: does not apply to --waveform dc (use bipolar or unipolar)")
         wf = DC(voltage)
     elif waveform in ("bipolar", "unipolar"):
         if frequency is None:
@@ -367,8 +374,12 @@ def build_protocol(voltage, duration, waveform="dc", frequency=None, duty=None, 
     else:
         raise WaveformError(f"waveform: got {waveform!r}, expected 'dc', 'bipolar' or 'unipolar'")
     stages = []
+    reset = _finite("reset", reset or 0.0, 0.0, hi=MAX_DURATION)
+    if reset_frequency is not None and reset == 0:
+        raise WaveformError("--reset-frequency: applies only with --reset SECONDS > 0")
     if reset:
-        reset = _finite("reset", reset, 0.0)
+        reset_frequency = _finite("reset_frequency", 30.0 if reset_frequency is None else reset_frequency, 0.0,
+                                  lo_incl=False, hi=1e6)
         stages.append(Stage(Bipolar(voltage, reset_frequency, 1.0), reset, "reset"))
     stages.append(Stage(wf, duration, "hold"))
     return Protocol(stages)
