@@ -35,6 +35,9 @@ class _Parser(argparse.ArgumentParser):
         self._negative_number_matcher = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
 
     def error(self, message):  # one line, no usage dump
+        m = re.match(r"argument (\S+): ignored explicit argument (.*)", message)
+        if m:                  # argparse's wording for "--json=1"
+            message = f"argument {m.group(1)}: takes no value, expected {m.group(1)} alone (got {m.group(2)})"
         raise CLIError(message)
 
 
@@ -275,7 +278,7 @@ def main(argv=None):
         args = ap.parse_args(argv)
         if not getattr(args, "command", None):
             ap.print_help()
-            return EXIT_USAGE
+            raise CLIError("command: required, one of params, simulate, sweep, fmu (dfa COMMAND --help for more)")
         if getattr(args, "dt", None) == 0:
             args.dt = None
         with warnings.catch_warnings():

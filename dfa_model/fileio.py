@@ -32,8 +32,16 @@ def check_writable(name: str, path, formats: tuple[str, ...] | None = None) -> P
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
         raise OutputError(f"{name}: folder {str(folder)!r} does not exist (create it first)")
-    if not os.access(folder, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+    if p.exists() and not os.access(p, os.W_OK):
         raise OutputError(f"{name}: {str(p)!r} is not writable (permission denied)")
+    # permissions alone do not tell (root passes os.access; /proc refuses new files): try
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".probe", dir=folder)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise OutputError(f"{name}: cannot create a file in folder {str(folder)!r} ({exc.strerror}); expected a "
+                          f"writable folder") from None
     return p
 
 

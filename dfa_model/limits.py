@@ -12,6 +12,9 @@ MAX_FORCE = 1e6             # N: load magnitude
 MAX_DURATION = 1e7          # s: total protocol length
 MAX_SEGMENTS = 5_000_000    # input breakpoints (switches, samples); each costs at least one step
 MAX_OUTPUT_BYTES = 1 << 30  # output arrays: rows x columns x 8 bytes (1 GiB)
+# output samples: each costs a full evaluation of the outputs (about 14 us at N = 81), so
+# this bounds the output's time to about 30 s as well as its memory to about 300 MB
+MAX_OUTPUT_SAMPLES = 2_000_000
 MAX_STEPS = 5_000_000       # default step limit of simulate (about a minute at N = 81)
 # the stroke must take at least this long to cross its range (b x_e / F, or sqrt(m x_e / F)
 # with mass): faster mechanics make TR-BDF2's trapezoidal stage overshoot the stops by
@@ -24,7 +27,12 @@ class LimitError(ValueError):
 
 
 def check_rows(name: str, rows: int, columns: int, hint: str = "") -> None:
-    """Refuse an output of `rows` x `columns` float64 beyond MAX_OUTPUT_BYTES."""
+    """Refuse an output of more than MAX_OUTPUT_SAMPLES rows, or of `rows` x `columns`
+    float64 beyond MAX_OUTPUT_BYTES."""
+    if rows > MAX_OUTPUT_SAMPLES:
+        raise LimitError(f"{name}: {rows:.3g} output samples, above the limit of {MAX_OUTPUT_SAMPLES:,} (each costs "
+                         f"an evaluation of all outputs: about 30 s and 300 MB at the limit)"
+                         f"{'; ' + hint if hint else ''}")
     need = float(rows) * columns * 8
     if need > MAX_OUTPUT_BYTES:
         raise LimitError(f"{name}: {rows:.3g} output samples x {columns} columns would take {need / 2 ** 30:.3g} GiB, "

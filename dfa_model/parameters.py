@@ -389,5 +389,6 @@ def apply_sets(p: Parameters, assignments) -> Parameters:
             raise ParameterError(f"--set: {key} given twice ({changes[key]!r} and {value!r})")
         changes[key] = value
     if "layout" in changes and changes["layout"] != p.layout:
-        raise ParameterError("layout: cannot be changed with --set; use a parameter file")
+        raise ParameterError(f"layout: cannot be changed with --set (expected {p.layout!r}, the file's own); "
+                             f"use a parameter file with the other layout's keys")
     return p.replace(**changes) if changes else p

@@ -77,6 +77,10 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
     y = _initial(model, x0, y0)
     V_before = _finite_in("V_before", V_before, limits.MAX_VOLTAGE)
     max_steps = _count("max_steps", max_steps)
+    if len(t) - 1 > max_steps:
+        raise limits.LimitError(f"max_steps: the inputs have {len(t) - 1:,} segments (switches, samples), each at "
+                                f"least one solver step, above max_steps = {max_steps:,}: raise it (--max-steps) or "
+                                f"shorten the run")
     t_out = _output_times(t_eval, T, model.n if charges else 0)
     rtol = p.rtol if rtol is None else _rtol(rtol)
     check_mechanics(model, mat[K], np.max(np.abs(np.concatenate([V0, V0 + Vs * np.diff(t)]))),
@@ -154,7 +158,7 @@ def _initial(model, x0, y0):
 
 
 def _max_rows(extra_columns):
-    return int(limits.MAX_OUTPUT_BYTES // (8 * (NREC + extra_columns)))
+    return min(limits.MAX_OUTPUT_SAMPLES, int(limits.MAX_OUTPUT_BYTES // (8 * (NREC + extra_columns))))
 
 
 def _output_times(t_eval, T, extra_columns):

@@ -27,3 +27,20 @@ def _quiet_physics_warnings():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicsWarning)
         yield
+
+
+def pytest_terminal_summary(terminalreporter):
+    """The fuzz suite's counts (tests/fuzz_support.py), when it ran."""
+    try:
+        from fuzz_support import COUNTS
+    except ImportError:
+        return
+    if COUNTS:
+        kinds = ", ".join(f"{k[6:]} {v}" for k, v in sorted(COUNTS.items()) if k.startswith("cases:"))
+        terminalreporter.write_line(
+            f"fuzz: {COUNTS['cases']} cases ({kinds}): {COUNTS['clean errors']} clean errors, {COUNTS['results']} "
+            f"results ({COUNTS['with warnings']} with warnings), {COUNTS['sweeps with failed cases']} sweeps "
+            f"with failed cases; 0 tracebacks, internal errors or NaN (else a test failed)")
+        for k, v in sorted(COUNTS.items()):
+            if k.startswith(("errors:", "results:")):
+                terminalreporter.write_line(f"fuzz:   {k} {v}")

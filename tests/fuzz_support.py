@@ -1,0 +1,91 @@
+"""Shared by the fuzz tests: run `dfa` in-process, check an outcome against the contract
+(README, 'Reliability'), and count outcomes for the summary line at the end of the run."""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import re
+import time
+from collections import Counter
+
+from dfa_model.parameters import SPEC
+
+COUNTS: Counter = Counter()
+CASE_SECONDS = 60.0        # no case may take longer (the runs are bounded by --max-steps)
+
+FLAGS = {"--preset", "--params", "--set", "--voltage", "--force", "--waveform", "--frequency", "--duty", "--reset",
+         "--reset-frequency", "--duration", "--dt", "--max-steps", "--out", "--plot", "--json", "--vary", "--workers",
+         "--scheduler", "--quiet"}
+NAMES = set(SPEC) | {"layout", "params", "preset", "voltage", "force", "frequency", "duty", "reset", "reset_frequency",
+                     "duration", "theta0", "max_steps", "t_eval", "x0", "y0", "V_before", "simulate", "rtol",
+                     "command", "fmu_command", "k_load"} | {
+                        f"{t}.{k}" for t in ("geometry", "materials", "mechanics", "discretization", "resistivity")
+                        for k in (*SPEC, "apex", "junk", "layout")} | {"geometry", "materials", "mechanics",
+                                                                       "discretization", "resistivity", "junk"}
+PHRASES = ("the following arguments are required", "unrecognized arguments", "one of --preset", "give either",
+           "invalid choice")
+# an error states what is acceptable, or what to do
+HINT = re.compile(r"expected|must|need|limit|appl|unknown|missing|required|valid|does not exist|folder|writable|"
+                  r"twice|either|choose from|raise|No such file|[Pp]ermission|known|not a|cannot read|"
+                  r"unrecognized|invalid choice|Read-only|not supported", re.IGNORECASE)
+ERROR_NAME = re.compile(r"^(argument )?(?P<name>[-\w.]+)(?: [-\w.]+)*?:")
+
+
+def run(argv):
+    """(exit code, stdout, stderr, seconds) of `dfa argv`, in this process."""
+    from dfa_model.cli import main
+    out, err = io.StringIO(), io.StringIO()
+    t0 = time.perf_counter()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main([str(a) for a in argv])
+    return rc, out.getvalue(), err.getvalue(), time.perf_counter() - t0
+
+
+def check(rc, out, err, seconds, x_e=None, kind="cli"):
+    """Assert the contract for one outcome and count it. Returns the JSON summary of a
+    successful --json run (or None)."""
+    COUNTS["cases"] += 1
+    COUNTS[f"cases:{kind}"] += 1
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith(("sweep:", "\r"))]
+    assert seconds < CASE_SECONDS, f"took {seconds:.1f} s"
+    assert "Traceback" not in err and "Traceback" not in out, err[-2000:]
+    assert rc in (0, 1, 2), (rc, err[-2000:])
+    warn = [ln for ln in lines if ln.startswith("dfa: warning: ")]
+    errs = [ln for ln in lines if ln.startswith("dfa: error: ")]
+    other = [ln for ln in lines if not ln.startswith(("dfa: warning: ", "dfa: error: "))]
+    assert not other, f"unexpected stderr lines: {other}"
+    if warn:
+        COUNTS["with warnings"] += 1
+    if rc == 2:
+        COUNTS["clean errors"] += 1
+        COUNTS[f"errors:{kind}"] += 1
+        assert len(errs) == 1 and lines[-1] == errs[0], err
+        msg = errs[0][len("dfa: error: "):]
+        assert "nan" not in msg.split(":")[0].lower()
+        if not msg.startswith(PHRASES):
+            m = ERROR_NAME.match(msg)
+            assert m, f"the error does not start with what it is about: {msg}"
+            name = m.group("name")
+            if "unknown" not in msg:    # an unknown key is named as the user wrote it
+                assert name in NAMES or name in FLAGS, f"the error names {name!r}, not a flag or key: {msg}"
+        assert HINT.search(msg), f"the error does not say what is acceptable: {msg}"
+        return None
+    assert not errs, err
+    if rc == 1:
+        COUNTS["sweeps with failed cases"] += 1
+        return None
+    COUNTS["results"] += 1
+    COUNTS[f"results:{kind}"] += 1
+    text = out.strip().splitlines()
+    if text and text[-1].startswith("{"):
+        summary = json.loads(text[-1])
+        for key in ("static_stroke", "final_stroke", "unzipping_speed", "wall_time"):
+            assert math.isfinite(summary[key]), summary
+        if x_e is not None:
+            for key in ("static_stroke", "final_stroke"):
+                assert 0.0 <= summary[key] <= x_e, (key, summary[key], x_e)
+        assert summary["unzipping_speed"] >= 0
+        return summary
+    return None
