@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .equations import C_M, C_NB, C_NBORD, C_SCHEME, K, MASS, NPOW, NREC, R_C, R_EIN, R_T, R_X, X_E, XSC
+from .equations import C_NB, C_NBORD, C_SCHEME, K, MASS, NPOW, NREC, R_C, R_EIN, R_T, R_X, X_E, XSC
 from .kernels import diagnostics, factor, jacobian, solve
 from .nodal import NWORK
 from .kernels import rhs as rhs_any
@@ -195,22 +195,17 @@ def _held(stop, g):
 
 
 @njit(cache=True)
-def _event_past(t, h, ev_t, wa, wb, prev):
-    """Bracket bookkeeping when the step [t, t + h] ends past a stop event: a new far
-    end (unless the step only re-reached the old one), the near end kept."""
-    if t + h == ev_t:
-        return wa, wb, prev
-    return (wa * 0.5 if prev == 1 else wa), 1.0, 1
-
-
-@njit(cache=True)
-def _event_trial(t, h, f0, f1, ev_t, wa, wb, prev):
-    """Fraction of the step [t, t + h] at which to try the event next: the secant root of
-    the event function (f0 at t, f1 at t + h, opposite signs) with Illinois weights."""
+def _event_retry(t, h, f0, f1, ev_t, wa, wb, prev):
+    """The step [t, t + h] ends past a stop event (event function f0 at t, f1 at t + h,
+    opposite signs). Returns the fraction of the step to try next, the secant root with
+    Illinois weights, and the bracket's new weights and last outcome: the far end is new
+    (unless the step only re-reached the old one, ev_t), the near end kept, and a near
+    end kept twice in a row has its weight halved."""
     if t + h != ev_t:
         wa = wa * 0.5 if prev == 1 else wa
         wb = 1.0
-    return min(0.999, max(1e-3, wa * f0 / (wa * f0 - wb * f1)))
+        prev = 1
+    return min(0.999, max(1e-3, wa * f0 / (wa * f0 - wb * f1))), wa, wb, prev
 
 
 @njit(cache=True)
@@ -244,7 +239,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     (a stepping caller interpolates its communication points there, see
     dfa_model.stepper)."""
     n = y0.shape[0]
-    M, nb = cfg[C_M], cfg[C_NB]
+    nb = cfg[C_NB]
     nbord = cfg[C_NBORD]
     y = y0.copy()
     z1 = np.empty(n)
@@ -483,32 +478,32 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 continue
             # ---- stop events: a step ending past a stop, or a held stroke pulled away,
             # is retried to end at the event (linear interpolation of the crossing)
+            # event functions: the net zipping force (release), the distance to the stop
+            # (impact); a retry when the step ends beyond the tolerance past the event
             event = 0             # 1: impact on a stop, 2: release from it
             g2 = 0.0
+            f_near = 0.0
+            f_far = 0.0
+            retry = False
             if stop != 0:
                 g2, gscale = _push(cfg, geo, mat, law, lawp, V2, F2, z2, tmp, kin, work, tri, jbe)
                 nfev += 1
                 if not _held(stop, g2):
-                    if abs(g2) > rtol * gscale and ev_tries < EV_TRIES and g_hold != g2:
-                        th = _event_trial(t, h, g_hold, g2, ev_t, ev_wa, ev_wb, ev_prev)
-                        ev_wa, ev_wb, ev_prev = _event_past(t, h, ev_t, ev_wa, ev_wb, ev_prev)
-                        ev_tries += 1
-                        nrej += 1
-                        ev_t = t + h
-                        hn = h * th
-                        continue
                     event = 2
+                    f_near, f_far = g_hold, g2
+                    retry = abs(g2) > rtol * gscale
             elif z2[0] < 0.0 or z2[0] > x_e:
-                xb = 0.0 if z2[0] < 0.0 else x_e
-                if abs(z2[0] - xb) > tol_x and ev_tries < EV_TRIES and y[0] != z2[0]:
-                    th = _event_trial(t, h, y[0] - xb, z2[0] - xb, ev_t, ev_wa, ev_wb, ev_prev)
-                    ev_wa, ev_wb, ev_prev = _event_past(t, h, ev_t, ev_wa, ev_wb, ev_prev)
-                    ev_tries += 1
-                    nrej += 1
-                    ev_t = t + h
-                    hn = h * th
-                    continue
                 event = 1
+                xb = 0.0 if z2[0] < 0.0 else x_e
+                f_near, f_far = y[0] - xb, z2[0] - xb
+                retry = abs(f_far) > tol_x
+            if retry and ev_tries < EV_TRIES and f_near != f_far:
+                th, ev_wa, ev_wb, ev_prev = _event_retry(t, h, f_near, f_far, ev_t, ev_wa, ev_wb, ev_prev)
+                ev_tries += 1
+                nrej += 1
+                ev_t = t + h
+                hn = h * th
+                continue
             # ---- accepted
             nsteps += 1
             if sliding:
