@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from .equations import R_ANG, R_C, R_FE, R_I, R_LZ, R_U, R_V, R_X
-from .integrator import GAMMA, OK, integrate
+from .integrator import GAMMA, I_HN, I_STUCK, OK, integrate
 from .model import DFAModel
 from .parameters import Parameters
 from .solver import _STATUS, SolverError
@@ -140,8 +140,8 @@ class Stepper:
             np.array([F]), np.zeros(1), self.V_sol, self.rtol, self._scale, t_out, False, False, self.max_steps,
             self._xc, self._ws, self._ist, one_step)
         if int(stats[4]) != OK:
-            raise SolverError(f"step: stopped at t = {stats[5]:.9g} s before {self.t:.9g} s because "
-                              f"{_STATUS[int(stats[4])]}; restore a saved state or reset")
+            raise SolverError(f"step: the solver stopped at t = {stats[5]:.9g} s (step from {seg_t[0]:.9g} s) "
+                              f"because {_STATUS[int(stats[4])]}; restore a saved state or reset")
         self.y = y_end
         self.n_steps += int(stats[0])
         return rec, stats
@@ -159,6 +159,23 @@ class Stepper:
         """A copy of everything the next step depends on."""
         return (self.t, self.V, self.F, self.ts, self.V_sol, self.n_steps, self.y.copy(), self.out.copy(),
                 self._ist.copy(), tuple(a.copy() for a in self._ws), self._snap, self._poly)
+
+    def check_state(self, state: tuple) -> None:
+        """Raise ValueError if `state`, of get_state's structure (checked by the caller,
+        e.g. dfa_model.statecodec.check_like), holds values the compiled solver must not
+        be given: it indexes the force jumps with the stuck index and steps with the next
+        step size. For states from outside (a deserialized FMU state)."""
+        n_steps, ist, snap, poly = state[5], state[8], state[10], state[11]
+        for name, st_ in (("state", ist), ("snapshot", None if snap is None else snap[2])):
+            if st_ is None:
+                continue
+            stuck, hn = st_[I_STUCK], st_[I_HN]
+            if not (stuck == int(stuck) and -1 <= stuck < len(self._xc)):
+                raise ValueError(f"{name}: stuck index {stuck!r}, expected an integer in [-1, {len(self._xc) - 1}]")
+            if not hn > 0:
+                raise ValueError(f"{name}: next step size {hn!r}, expected > 0")
+        if not (n_steps >= 0 and (poly is None or poly[1] > 0)):
+            raise ValueError("negative step count, or an interpolation step of zero length")
 
     def set_state(self, state: tuple) -> None:
         self.t, self.V, self.F, self.ts, self.V_sol, self.n_steps, y, out, ist, ws, self._snap, self._poly = state
