@@ -8,7 +8,8 @@ fixes what pythonfmu leaves out:
   calculated there; pythonfmu writes only <Outputs>, which fmpy's validation rejects);
 - the binary: ours (fmu/c/fmi2_python.c, compiled here with the system C compiler)
   replaces pythonfmu's library, which maps every Python exception to fmi2Fatal and
-  destroys the instance, and which leaves libpython undeclared so that a C host
+  destroys the instance (ours keeps the FMI state machine and checks every call; see
+  the file's header), and which leaves libpython undeclared so that a C host
   dlopening it with RTLD_NOW fails with `undefined symbol: _Py_NoneStruct`. Ours is
   linked against this Python's libpython with its directory as run path.
 """
@@ -37,7 +38,17 @@ class BuildError(RuntimeError):
 
 def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAActuator.fmu") -> Path:
     """Build the actuator FMU for `params` (default: the Table 1 preset); returns its path."""
+    return build_actuator_variant(SLAVE, MODEL_IDENTIFIER, out, params)
+
+
+def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.PathLike,
+                           params: P.Parameters | None = None) -> Path:
+    """Build an FMU whose slave class `cls` lives in `script` and may build on the
+    actuator: the FMU's resources also hold dfa_actuator.py (importable as
+    `dfa_actuator`), the parameter file and the search path. build_fmu is the case
+    script = dfa_actuator.py; the tests' fault-injection slave is another."""
     params = P.preset("vshape-table1") if params is None else params
+    script = Path(script)
     with tempfile.TemporaryDirectory(prefix="dfa_fmu_") as tmp:
         src = Path(tmp) / "files"
         src.mkdir()
@@ -47,8 +58,10 @@ def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAA
         paths = [str(Path(P.__file__).resolve().parents[1]), sysconfig.get_path("purelib"),
                  sysconfig.get_path("platlib")]
         (src / "dfa_sys_path.txt").write_text("\n".join(dict.fromkeys(paths)) + "\n")
+        if script.resolve() != SLAVE:
+            shutil.copy2(SLAVE, src / SLAVE.name)
         from .dfa_actuator import UNITS
-        return _package(SLAVE, MODEL_IDENTIFIER, out, list(src.iterdir()), units=UNITS, serialize=True,
+        return _package(script, cls, out, list(src.iterdir()), units=UNITS, serialize=True,
                         canGetAndSetFMUstate=True)
 
 
@@ -150,7 +163,7 @@ def _fix_description(xml: bytes, units_of: dict, serialize: bool) -> bytes:
     pos = next(k for k, c in enumerate(children) if c.tag in ("TypeDefinitions", "LogCategories", "DefaultExperiment",
                                                              "VendorAnnotations", "ModelVariables"))
     root.insert(pos, ud)
-    # fmi2_python.c serializes the state when the slave can (the actuator pickles it)
+    # fmi2_python.c serializes the state when the slave can (the actuator: dfa_model.statecodec)
     root.find("CoSimulation").set("canSerializeFMUstate", "true" if serialize else "false")
     ms = root.find("ModelStructure")
     for child in list(ms):
