@@ -58,11 +58,12 @@ def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.Pa
         paths = [str(Path(P.__file__).resolve().parents[1]), sysconfig.get_path("purelib"),
                  sysconfig.get_path("platlib")]
         (src / "dfa_sys_path.txt").write_text("\n".join(dict.fromkeys(paths)) + "\n")
-        if script.resolve() != SLAVE:
+        variant = script.resolve() != SLAVE
+        if variant:
             shutil.copy2(SLAVE, src / SLAVE.name)
         from .dfa_actuator import UNITS
         return _package(script, cls, out, list(src.iterdir()), units=UNITS, serialize=True,
-                        canGetAndSetFMUstate=True)
+                        beside=[SLAVE] if variant else [], canGetAndSetFMUstate=True)
 
 
 # the co-simulation example's companions: slave module, slave class
@@ -79,9 +80,10 @@ def build_companion_fmu(kind: str, out: str | os.PathLike) -> Path:
     return _package(HERE / f"{name}.py", cls, out, [], units=module.UNITS)
 
 
-def _package(script: Path, cls: str, out, project_files, units: dict, serialize=False, **flags) -> Path:
+def _package(script: Path, cls: str, out, project_files, units: dict, serialize=False, beside=(), **flags) -> Path:
     """pythonfmu packs the slave; _rewrite fixes the description (units: variable name ->
-    unit, the slave module's UNITS) and adds our binary."""
+    unit, the slave module's UNITS) and adds our binary. `beside`: modules the script
+    imports, copied next to it (pythonfmu imports the script to read its interface)."""
     try:
         from pythonfmu import FmuBuilder
     except ImportError:
@@ -95,6 +97,8 @@ def _package(script: Path, cls: str, out, project_files, units: dict, serialize=
         src = tmp / "src"
         src.mkdir()
         shutil.copy2(script, src / script.name)
+        for extra in beside:
+            shutil.copy2(extra, src / Path(extra).name)
         raw = FmuBuilder.build_FMU(src / script.name, dest=tmp / f"{cls}.fmu", project_files=project_files,
                                    needsExecutionTool=True, **flags)
         _rewrite(Path(raw), out, tmp, cls, units, serialize)

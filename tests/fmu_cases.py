@@ -322,3 +322,70 @@ def test_cosimulation_with_drive_and_load(fmu_path, tmp_path):
     assert abs(np.mean(inv[3500:]) - np.mean(inv[500:1000])) <= 0.01 * np.mean(inv[500:1000])
     early, late = np.mean(dc[1500:2000]), np.mean(dc[3500:])
     assert late < 0.98 * early and late > 0.5 * early
+
+
+# ---------------------------------------------------------------------- fault injection
+# Scenarios of tests/fmu_host_faults.c: one per injected fault's entry point (the test
+# slave tests/fmu_faulty.py), and the generic abuse of the C binary.
+FAULT_SCENARIOS = ("instantiate", "invalid_instance", "arguments", "states", "setup_experiment",
+                   "enter_initialization_mode", "exit_initialization_mode", "terminate", "do_step", "do_step_solver",
+                   "do_step_wrong_type", "do_step_false", "get_real", "get_integer", "get_boolean", "get_string",
+                   "set_real", "set_integer", "set_boolean", "set_string", "_get_fmu_state", "_set_fmu_state",
+                   "_fmu_state_to_bytes", "_fmu_state_from_bytes", "log_queue")
+
+
+@pytest.fixture(scope="module")
+def fault_run(tmp_path_factory):
+    """Build the fault-injection FMU, make the bad-resource copies (defect 1: an unknown
+    slave module, an unknown key in dfa_params.toml), compile the hostile C host and run
+    it once; returns its result lines by scenario."""
+    if not sys.platform.startswith("linux") or shutil.which("gcc") is None:
+        pytest.skip("needs Linux and gcc")
+    from fmu.build import build_actuator_variant
+    tmp = tmp_path_factory.mktemp("faults")
+    path = build_actuator_variant(Path(__file__).with_name("fmu_faulty.py"), "FaultyActuator", tmp / "Faulty.fmu")
+    md_f = fmpy.read_model_description(str(path))
+    root = Path(fmpy.extract(str(path), str(tmp / "faulty")))
+    bad_module, bad_params = tmp / "bad_module", tmp / "bad_params"
+    for d in (bad_module, bad_params):
+        shutil.copytree(root, d)
+    (bad_module / "resources" / "slavemodule.txt").write_text("no_such_module\n")
+    toml = bad_params / "resources" / "dfa_params.toml"
+    toml.write_text(toml.read_text().replace("[geometry]\n", "[geometry]\nbogus_key = 1.0\n", 1))
+    exe = tmp / "fmu_host_faults"
+    cc = subprocess.run(["gcc", "-O1", "-o", str(exe), str(Path(__file__).with_name("fmu_host_faults.c")),
+                         "-I", str(Path(fmpy.__file__).parent / "c-code"), "-ldl"], capture_output=True, text=True)
+    assert cc.returncode == 0, cc.stderr
+    r = vr(md_f)
+    so = root / "binaries" / "linux64" / f"{md_f.coSimulation.modelIdentifier}.so"
+    env = {k: v for k, v in os.environ.items() if k not in ("LD_PRELOAD", "LD_LIBRARY_PATH", "PYTHONPATH",
+                                                            "PYTHONHOME")}
+    args = [str(exe), str(so), (root / "resources").as_uri(), str(root / "resources"),
+            (bad_module / "resources").as_uri(), (bad_params / "resources").as_uri()]
+    args += [str(r[k]) for k in ("voltage", "force", "stroke", "rho_l", "rho_f", "N", "scheme",
+                                 "land_on_communication_points")]
+    out = subprocess.run(args, capture_output=True, text=True, timeout=600, env=env)
+    by = {}
+    for line in out.stdout.splitlines():
+        word, _, rest = line.partition(" ")
+        if word in ("ok", "FAIL"):
+            by.setdefault(rest.split(":")[0], []).append((word == "ok", line))
+    return out, by
+
+
+def test_fault_host_survives(fault_run):
+    """The hostile host exits normally after every scenario, and runs no other."""
+    out, by = fault_run
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    assert out.stdout.splitlines()[-1].startswith("done"), out.stdout[-3000:]
+    assert set(by) == set(FAULT_SCENARIOS), set(by) ^ set(FAULT_SCENARIOS)
+
+
+@pytest.mark.parametrize("scenario", FAULT_SCENARIOS)
+def test_fault_scenario(fault_run, scenario):
+    """Each call of the scenario returned the documented status with a log line, and the
+    instance behaved as documented afterwards (see tests/fmu_host_faults.c)."""
+    _, by = fault_run
+    results = by.get(scenario, [])
+    assert len(results) >= 2, results
+    assert all(ok for ok, _ in results), "\n".join(line for ok, line in results if not ok)
