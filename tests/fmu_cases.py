@@ -1,5 +1,7 @@
 """Run through tests/test_fmu.py, in a separate process. The FMU: build, validation, fmpy simulation against the direct model, life cycle,
-state rollback, error paths, a C host, and loading a copy in a fresh process."""
+state rollback, error paths, a C host, and loading a copy in a fresh process; a hostile C
+host with faults injected at every entry point (tests/fmu_host_faults.c,
+tests/fmu_faulty.py); a fuzz of FMI call sequences against the state table."""
 import os
 import shutil
 import subprocess
