@@ -134,6 +134,7 @@ static const char *KIND_NAMES[] = {"unknown", "Real", "Integer", "Boolean", "Str
 typedef struct {
     unsigned char kind;
     unsigned char set_mask; /* states in which fmi2SetXXX may write it */
+    unsigned char fast_set; /* set_mask if it is in the fast-path buffer, else 0 */
     int fast;               /* index into the fast-path buffer, or -1 */
     char *name;
     const char *why;        /* why it cannot be set (in messages) */
@@ -172,9 +173,16 @@ struct Comp {
     Comp *next;
 };
 
-/* registry of live instances: a pointer the host passes is used only if found here */
+/* registry of live instances: a pointer the host passes is used only if found here.
+ * The fast path must not pay for a lock: each thread remembers the last instance it
+ * found, valid while no instance has been freed since (g_gen counts frees). */
 static pthread_mutex_t g_lock = PTHREAD_MUTEX_INITIALIZER;
 static Comp *g_comps;
+static unsigned long g_gen = 1;
+static __thread struct {
+    const void *comp;
+    unsigned long gen;
+} tl; /* one thread-local block: one TLS lookup */
 
 static void registry_add(Comp *c)
 {
@@ -192,6 +200,7 @@ static int registry_remove(Comp *c)
         if (*p == c) {
             *p = c->next;
             found = 1;
+            __atomic_add_fetch(&g_gen, 1, __ATOMIC_RELEASE); /* every thread's remembered instance */
             break;
         }
     }
@@ -201,11 +210,17 @@ static int registry_remove(Comp *c)
 
 static Comp *registry_find(const void *comp)
 {
+    if (comp && comp == tl.comp && __atomic_load_n(&g_gen, __ATOMIC_ACQUIRE) == tl.gen) return (Comp *)comp;
     Comp *c;
     pthread_mutex_lock(&g_lock);
+    unsigned long gen = g_gen;
     for (c = g_comps; c && (const void *)c != comp; c = c->next) {
     }
     pthread_mutex_unlock(&g_lock);
+    if (c) {
+        tl.comp = c;
+        tl.gen = gen;
+    }
     return c;
 }
 
@@ -471,6 +486,7 @@ static int read_vars(PyObject *slave, Var **out, size_t *nout)
                 break;
             }
             memset(t + n, 0, (vr + 1 - n) * sizeof(Var));
+            for (size_t k = n; k <= vr; k++) t[k].fast = -1; /* holes: never on the fast path */
             table = t;
             n = vr + 1;
         }
@@ -532,12 +548,15 @@ static void attach_buffer(PyObject *slave, Var *vars, size_t nvars, Py_buffer *b
         for (Py_ssize_t i = 0; ok && i < n; i++) {
             unsigned long vr = PyLong_AsUnsignedLong(PyTuple_GET_ITEM(vrs, i));
             ok = !PyErr_Occurred() && vr < nvars && vars[vr].kind == K_REAL && vars[vr].fast < 0;
-            if (ok) vars[vr].fast = (int)i;
+            if (ok) {
+                vars[vr].fast = (int)i;
+                vars[vr].fast_set = vars[vr].set_mask;
+            }
         }
         if (ok) {
             *has_buf = 1;
         } else {
-            for (size_t i = 0; i < nvars; i++) vars[i].fast = -1;
+            for (size_t i = 0; i < nvars; i++) vars[i].fast = -1, vars[i].fast_set = 0;
             PyBuffer_Release(buf);
         }
     }
@@ -935,13 +954,14 @@ static fmi2Status get_values(fmi2Component comp, enum Fn fn, int kind, const fmi
     if (n == 0) return fmi2OK;
     NEED(vr, "vr[]")
     NEED(value, "value[]")
-    if (!check_vrs(c, fn, vr, n, kind, 0, NULL)) return fmi2Error;
-    if (kind == K_REAL && c->has_buf) {
+    if (kind == K_REAL && c->has_buf) { /* fast path: every reference a buffered Real */
         const double *b = (const double *)c->buf.buf;
         size_t i = 0;
-        for (; i < n && c->vars[vr[i]].fast >= 0; i++) ((fmi2Real *)value)[i] = b[c->vars[vr[i]].fast];
+        for (; i < n && vr[i] < c->nvars && c->vars[vr[i]].fast >= 0; i++)
+            ((fmi2Real *)value)[i] = b[c->vars[vr[i]].fast];
         if (i == n) return fmi2OK;
     }
+    if (!check_vrs(c, fn, vr, n, kind, 0, NULL)) return fmi2Error;
     GIL_BEGIN
     PyObject *r = py_get(c, kind, vr, n);
     PyObject *keep = (r && kind == K_STRING) ? PyList_New((Py_ssize_t)n) : NULL;
@@ -1055,20 +1075,22 @@ static fmi2Status set_values(fmi2Component comp, enum Fn fn, int kind, const fmi
     if (n == 0) return fmi2OK;
     NEED(vr, "vr[]")
     NEED(value, "value[]")
+    if (kind == K_REAL && c->has_buf) { /* fast path: buffered Reals, settable now, finite */
+        const fmi2Real *x = (const fmi2Real *)value;
+        size_t i = 0;
+        for (; i < n && vr[i] < c->nvars && (c->vars[vr[i]].fast_set & c->st) && isfinite(x[i]); i++) {
+        }
+        if (i == n) {
+            double *b = (double *)c->buf.buf;
+            for (i = 0; i < n; i++) b[c->vars[vr[i]].fast] = x[i];
+            return fmi2OK;
+        }
+    }
     if (!check_vrs(c, fn, vr, n, kind, 1, kind == K_REAL ? (const fmi2Real *)value : NULL)) return fmi2Error;
     if (kind == K_STRING) {
         for (size_t i = 0; i < n; i++)
             if (!((const fmi2String *)value)[i])
                 return logf_(c, fmi2Error, "fmi2SetString: value[%zu] (value reference %u) is NULL", i, vr[i]);
-    }
-    if (kind == K_REAL && c->has_buf) {
-        size_t i = 0;
-        while (i < n && c->vars[vr[i]].fast >= 0) i++;
-        if (i == n) { /* all checked above: write */
-            double *b = (double *)c->buf.buf;
-            for (i = 0; i < n; i++) b[c->vars[vr[i]].fast] = ((const fmi2Real *)value)[i];
-            return fmi2OK;
-        }
     }
     GIL_BEGIN
     fmi2Status st = py_set(c, fn, kind, vr, n, value);
