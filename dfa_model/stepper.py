@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from .equations import R_ANG, R_C, R_FE, R_I, R_LZ, R_U, R_V, R_X
-from .integrator import GAMMA, OK, integrate
+from .integrator import GAMMA, I_HN, I_STOP, I_STUCK, OK, integrate
 from .model import DFAModel
 from .parameters import Parameters
 from . import limits
@@ -163,6 +163,28 @@ class Stepper:
         """A copy of everything the next step depends on."""
         return (self.t, self.V, self.F, self.ts, self.V_sol, self.n_steps, self.y.copy(), self.out.copy(),
                 self._ist.copy(), tuple(a.copy() for a in self._ws), self._snap, self._poly)
+
+    def check_state(self, state: tuple) -> None:
+        """Raise ValueError if `state`, of get_state's structure (checked by the caller,
+        e.g. dfa_model.statecodec.check_like), holds values the compiled solver must not
+        be given: it indexes the force jumps with the stuck index and steps with the next
+        step size. For states from outside (a deserialized FMU state)."""
+        n_steps, y, ist, snap, poly = state[5], state[6], state[8], state[10], state[11]
+        x_e = self.model.kin.x_e
+        for name, st_, y_ in (("state", ist, y), ("snapshot", *((None, None) if snap is None else (snap[2], snap[1])))):
+            if st_ is None:
+                continue
+            stuck, hn, stop = st_[I_STUCK], st_[I_HN], st_[I_STOP]
+            if not (stuck == int(stuck) and -1 <= stuck < len(self._xc)):
+                raise ValueError(f"{name}: stuck index {stuck!r}, expected an integer in [-1, {len(self._xc) - 1}]")
+            if not hn > 0:
+                raise ValueError(f"{name}: next step size {hn!r}, expected > 0")
+            if stop not in (-1.0, 0.0, 1.0):
+                raise ValueError(f"{name}: stop flag {stop!r}, expected -1, 0 or 1")
+            if not 0.0 <= y_[0] <= x_e:
+                raise ValueError(f"{name}: stroke {y_[0]!r} m, expected 0 <= x <= x_e = {x_e:.6g} m")
+        if not (n_steps >= 0 and (poly is None or poly[1] > 0)):
+            raise ValueError("negative step count, or an interpolation step of zero length")
 
     def set_state(self, state: tuple) -> None:
         self.t, self.V, self.F, self.ts, self.V_sol, self.n_steps, y, out, ist, ws, self._snap, self._poly = state

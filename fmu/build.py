@@ -8,7 +8,8 @@ fixes what pythonfmu leaves out:
   calculated there; pythonfmu writes only <Outputs>, which fmpy's validation rejects);
 - the binary: ours (fmu/c/fmi2_python.c, compiled here with the system C compiler)
   replaces pythonfmu's library, which maps every Python exception to fmi2Fatal and
-  destroys the instance, and which leaves libpython undeclared so that a C host
+  destroys the instance (ours keeps the FMI state machine and checks every call; see
+  the file's header), and which leaves libpython undeclared so that a C host
   dlopening it with RTLD_NOW fails with `undefined symbol: _Py_NoneStruct`. Ours is
   linked against this Python's libpython with its directory as run path.
 """
@@ -37,7 +38,17 @@ class BuildError(RuntimeError):
 
 def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAActuator.fmu") -> Path:
     """Build the actuator FMU for `params` (default: the Table 1 preset); returns its path."""
+    return build_actuator_variant(SLAVE, MODEL_IDENTIFIER, out, params)
+
+
+def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.PathLike,
+                           params: P.Parameters | None = None) -> Path:
+    """Build an FMU whose slave class `cls` lives in `script` and may build on the
+    actuator: the FMU's resources also hold dfa_actuator.py (importable as
+    `dfa_actuator`), the parameter file and the search path. build_fmu is the case
+    script = dfa_actuator.py; the tests' fault-injection slave is another."""
     params = P.preset("vshape-table1") if params is None else params
+    script = Path(script)
     with tempfile.TemporaryDirectory(prefix="dfa_fmu_") as tmp:
         src = Path(tmp) / "files"
         src.mkdir()
@@ -47,9 +58,12 @@ def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAA
         paths = [str(Path(P.__file__).resolve().parents[1]), sysconfig.get_path("purelib"),
                  sysconfig.get_path("platlib")]
         (src / "dfa_sys_path.txt").write_text("\n".join(dict.fromkeys(paths)) + "\n")
+        variant = script.resolve() != SLAVE
+        if variant:
+            shutil.copy2(SLAVE, src / SLAVE.name)
         from .dfa_actuator import UNITS
-        return _package(SLAVE, MODEL_IDENTIFIER, out, list(src.iterdir()), units=UNITS, serialize=True,
-                        canGetAndSetFMUstate=True)
+        return _package(script, cls, out, list(src.iterdir()), units=UNITS, serialize=True,
+                        beside=[SLAVE] if variant else [], canGetAndSetFMUstate=True)
 
 
 # the co-simulation example's companions: slave module, slave class
@@ -66,9 +80,10 @@ def build_companion_fmu(kind: str, out: str | os.PathLike) -> Path:
     return _package(HERE / f"{name}.py", cls, out, [], units=module.UNITS)
 
 
-def _package(script: Path, cls: str, out, project_files, units: dict, serialize=False, **flags) -> Path:
+def _package(script: Path, cls: str, out, project_files, units: dict, serialize=False, beside=(), **flags) -> Path:
     """pythonfmu packs the slave; _rewrite fixes the description (units: variable name ->
-    unit, the slave module's UNITS) and adds our binary."""
+    unit, the slave module's UNITS) and adds our binary. `beside`: modules the script
+    imports, copied next to it (pythonfmu imports the script to read its interface)."""
     try:
         from pythonfmu import FmuBuilder
     except ImportError:
@@ -82,6 +97,8 @@ def _package(script: Path, cls: str, out, project_files, units: dict, serialize=
         src = tmp / "src"
         src.mkdir()
         shutil.copy2(script, src / script.name)
+        for extra in beside:
+            shutil.copy2(extra, src / Path(extra).name)
         raw = FmuBuilder.build_FMU(src / script.name, dest=tmp / f"{cls}.fmu", project_files=project_files,
                                    needsExecutionTool=True, **flags)
         _rewrite(Path(raw), out, tmp, cls, units, serialize)
@@ -150,7 +167,7 @@ def _fix_description(xml: bytes, units_of: dict, serialize: bool) -> bytes:
     pos = next(k for k, c in enumerate(children) if c.tag in ("TypeDefinitions", "LogCategories", "DefaultExperiment",
                                                              "VendorAnnotations", "ModelVariables"))
     root.insert(pos, ud)
-    # fmi2_python.c serializes the state when the slave can (the actuator pickles it)
+    # fmi2_python.c serializes the state when the slave can (the actuator: dfa_model.statecodec)
     root.find("CoSimulation").set("canSerializeFMUstate", "true" if serialize else "false")
     ms = root.find("ModelStructure")
     for child in list(ms):

@@ -5,9 +5,14 @@ the FMU was built from (dfa_params.toml). It imports the installed `dfa_model`: 
 runs the same code as `dfa simulate`. The FMU's binary is fmu/c/fmi2_python.c.
 
 Inputs (held between communication points; a change is a jump at the step start):
-voltage (V), force (N, opposing zipping). Errors (bad parameters, NaN inputs, solver
-failure) are raised here; the binary logs the message and returns fmi2Error, and the
-master may roll back with fmi2SetFMUstate or reset.
+voltage (V), force (N, opposing zipping). Errors (bad parameters, solver failure) are
+raised here; the binary logs the message and returns fmi2Error. The binary keeps the
+FMI state machine and checks the calls' arguments (states, value references, NaN,
+step sizes, times) before this class sees them.
+
+FMU states are plain data (dicts, tuples, floats, NumPy arrays), serialized with
+dfa_model.statecodec (never pickle: the bytes come from the host), and validated in full
+before anything is assigned, so a refused state changes nothing.
 """
 import os
 import sys
@@ -22,16 +27,16 @@ if os.path.exists(os.path.join(_here, "dfa_sys_path.txt")):
             sys.path.append(_p)
 
 import math  # noqa: E402
-import pickle  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Variability
+from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
 from pythonfmu.fmi2slave import Fmi2Slave
 from pythonfmu.variables import Boolean, Integer, Real, String
 from pythonfmu.default_experiment import DefaultExperiment
 
 from dfa_model import parameters as P
+from dfa_model import statecodec
 from dfa_model.stepper import OUTPUTS, Stepper
 
 PARAMS_FILE = "dfa_params.toml"
@@ -56,6 +61,9 @@ INPUT_INFO = {
     "voltage": ("V", "voltage across the electrodes"),
     "force": ("N", "external load force, opposing zipping"),
 }
+# every parameter variable, in registration order (the FMU state holds them by name)
+PARAM_KEYS = ("layout", *P.SPEC, "land_on_communication_points", *EXTRA)
+STATE_KEYS = ("params", "inputs", "experiment", "stepper")
 # the unit of every Real variable (build.py writes them into modelDescription.xml)
 UNITS = {**{k: u for k, (u, _) in INPUT_INFO.items()}, **{k: u for k, (u, _) in OUTPUT_INFO.items()},
          **{k: s.unit for k, s in P.SPEC.items() if s.unit}, **{k: e[0] for k, e in EXTRA.items()}}
@@ -76,7 +84,8 @@ class DFAActuator(Fmi2Slave):
         self.land_on_communication_points = True
         self._start_time, self._stop_time = 0.0, None
         self._stepper = None
-        self._failed = False
+        self._stepper_key = None        # the parameters and experiment the stepper was built for
+        self._templates = {}            # parameters -> structure of their stepper states
         for name, (unit, text) in INPUT_INFO.items():
             self.register_variable(Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
                                         description=f"{text} [{unit}]", setter=self._input_setter(name)))
@@ -113,6 +122,7 @@ class DFAActuator(Fmi2Slave):
             self.register_variable(Real(key, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                                         initial=Fmi2Initial.exact, description=f"{text} [{unit}]",
                                         setter=self._param_setter(key)))
+        self._start_values = self._param_values()
 
     # ------------------------------------------------------------------ setters
     def _param_setter(self, key):
@@ -121,73 +131,58 @@ class DFAActuator(Fmi2Slave):
     def _input_setter(self, name):
         return lambda v: self._set_input(name, v)
 
-    def _error(self, msg):
-        raise ValueError(msg)       # the binary logs it and returns fmi2Error
-
     def _set_param(self, key, value):
-        if self._stepper is not None:
-            self._error(f"{key}: parameters are fixed after initialization (reset the FMU to change them)")
-        try:
-            if key == "land_on_communication_points":
-                value = bool(value)
-            elif key in EXTRA:
-                if not math.isfinite(value) or value < 0 or (key == "v_nominal" and value <= 0):
-                    raise P.ParameterError(f"{key}: got {value!r}, expected a finite number "
-                                           f"{'> 0' if key == 'v_nominal' else '>= 0'} ({EXTRA[key][0]})")
-            elif not (key in ("a", "volume") and value == 0.0):
-                P.check_value(key, value)
-        except P.ParameterError as exc:
-            self._error(str(exc))
+        if self._stepper is not None:    # the binary refuses this already (fixed parameters)
+            raise ValueError(f"{key}: parameters are fixed after initialization (reset the FMU to change them)")
+        _check_param(key, value)
         setattr(self, key, value)
 
     def _set_input(self, name, value):
         if not math.isfinite(value):
-            self._error(f"{name}: got {value!r}, expected a finite number")
+            raise ValueError(f"{name}: got {value!r}, expected a finite number")
         setattr(self, name, value)
 
     # ------------------------------------------------------------------ life cycle
-    def _parameters(self):
-        flat = {"layout": self.layout}
-        for key in P.SPEC:
-            flat[key] = getattr(self, key)
-        if flat["layout"] == "v-shaped":
-            flat["volume"] = None
-        else:
-            flat["a"] = None
-        return P.Parameters(**flat)
+    def _param_values(self) -> dict:
+        return {key: getattr(self, key) for key in PARAM_KEYS}
 
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
         self._start_time = float(start_time)
         self._stop_time = None if stop_time is None else float(stop_time)
 
-    def _new_stepper(self):
-        stop = self._stop_time if self._stop_time is not None and self._stop_time > self._start_time else None
-        return Stepper(self._parameters(), v_nominal=self.v_nominal, x0=self.x0, t0=self._start_time, t_end=stop,
-                       exact=self.land_on_communication_points)
+    def _new_stepper(self, params: dict, experiment: tuple) -> Stepper:
+        start, stop = experiment
+        stop = stop if stop is not None and stop > start else None
+        return Stepper(_parameters(params), v_nominal=params["v_nominal"], x0=params["x0"], t0=start, t_end=stop,
+                       exact=params["land_on_communication_points"])
 
     def exit_initialization_mode(self):
+        params, experiment = self._param_values(), (self._start_time, self._stop_time)
         try:
-            self._stepper = self._new_stepper()
+            stepper = self._new_stepper(params, experiment)
         except (P.ParameterError, ValueError) as exc:
-            self._error(f"initialization failed: {exc}")
+            raise ValueError(f"initialization failed: {exc}") from None
+        self._stepper, self._stepper_key = stepper, _key(params, experiment)
         self._publish()
+        self._warn_ignored(params)
+
+    def _warn_ignored(self, params):
+        """Parameters changed from their start value that take no part in the model
+        (parameters.applies): a warning each, so that the call returns fmi2Warning."""
+        for key in P.SPEC:
+            if not P.applies(self, key) and params[key] != self._start_values[key]:
+                self.log(f"fmi2ExitInitializationMode: parameter {key} = {params[key]!r} is ignored: it takes no part "
+                         f"with layout {self.layout!r}, scheme {self.scheme!r}, law {self.law!r}",
+                         Fmi2Status.warning)
 
     def do_step(self, current_time, step_size):
+        # the binary has checked the state, the time (continues the run) and step_size > 0
         st = self._stepper
         if st is None:
-            self._error("doStep called before initialization")
-        if self._failed:
-            self._error("the solver failed at an earlier step; restore a saved state or reset")
-        if abs(current_time - st.t) > 1e-9 * max(1.0, abs(st.t)):
-            self._error(f"doStep: currentCommunicationPoint = {current_time!r} s, expected the end of the previous "
-                        f"step, {st.t!r} s")
+            raise RuntimeError("do_step before exit_initialization_mode")
         st.t = current_time          # the master's clock is the reference
         buf = self._c_real_buf
-        try:
-            st.step(step_size, buf[0], buf[1])
-        except Exception as exc:     # SolverError, ValueError: reported, never a crash
-            self._failed = True
-            self._error(f"doStep at t = {current_time:g} s: {exc}")
+        st.step(step_size, buf[0], buf[1])
         self._publish()
         return True
 
@@ -195,42 +190,127 @@ class DFAActuator(Fmi2Slave):
         self._c_real_buf[2:] = self._stepper.out
 
     # ------------------------------------------------------------------ FMU state
-    # the state holds NumPy arrays: pickle, not pythonfmu's JSON
     @staticmethod
     def _fmu_state_to_bytes(state):
-        return pickle.dumps(state)
+        return statecodec.encode(state)
 
     @staticmethod
     def _fmu_state_from_bytes(data):
-        return pickle.loads(data)
+        return statecodec.decode(data)
 
     def _get_fmu_state(self):
-        state = super()._get_fmu_state()
-        state["_stepper"] = None if self._stepper is None else self._stepper.get_state()
-        state["_failed"] = self._failed
-        return state
+        return {"params": self._param_values(), "inputs": (self.voltage, self.force),
+                "experiment": (self._start_time, self._stop_time),
+                "stepper": None if self._stepper is None else self._stepper.get_state()}
 
     def _set_fmu_state(self, state):
-        state = dict(state)
-        st, failed = state.pop("_stepper"), state.pop("_failed")
-        saved, self._stepper = self._stepper, None          # let parameter setters through
-        super()._set_fmu_state(state)
-        if st is not None:
-            if saved is None:
-                saved = self._new_stepper()
-            self._stepper = saved
-            self._stepper.set_state(st)
-        self._failed = failed
+        # validate everything, then assign: a refused state changes nothing
+        params, inputs, experiment, stepper, solver_state = self._validate_fmu_state(state)
+        if stepper is not None:
+            stepper.set_state(solver_state)
+        for key, value in params.items():
+            setattr(self, key, value)
+        self._c_real_buf[:2] = inputs
+        self._start_time, self._stop_time = experiment
+        self._stepper = stepper
+        self._stepper_key = None if stepper is None else _key(params, experiment)
+        if stepper is None:
+            self._c_real_buf[2:] = 0.0
+        else:
+            self._publish()
+
+    def _validate_fmu_state(self, state):
+        """The parts of `state` ready to assign, after the checks a live state passes:
+        every parameter through parameters' validation, the inputs finite, the solver
+        state of the structure of a freshly built one (statecodec.check_like) and with
+        values the solver accepts (Stepper.check_state). Raises ValueError naming the
+        first problem. Also called by the binary right after fmi2DeSerializeFMUstate."""
+        where = "FMU state"
+        if not isinstance(state, dict) or set(state) != set(STATE_KEYS):
+            raise ValueError(f"{where}: expected a dict with keys {', '.join(STATE_KEYS)}")
+        params = state["params"]
+        if not isinstance(params, dict) or set(params) != set(PARAM_KEYS):
+            raise ValueError(f"{where}: params must name every parameter ({', '.join(PARAM_KEYS)})")
+        for key in PARAM_KEYS:
+            _check_param(key, params[key])
+        inputs = state["inputs"]
+        if not (isinstance(inputs, tuple) and len(inputs) == 2 and all(_finite(v) for v in inputs)):
+            raise ValueError(f"{where}: inputs must be (voltage, force), finite numbers")
+        experiment = state["experiment"]
+        if not (isinstance(experiment, tuple) and len(experiment) == 2 and _finite(experiment[0])
+                and (experiment[1] is None or _finite(experiment[1]))):
+            raise ValueError(f"{where}: experiment must be (start time, stop time or None), finite")
+        solver_state = state["stepper"]
+        if solver_state is None:
+            return params, inputs, experiment, None, None
+        key = _key(params, experiment)
+        if self._stepper is not None and self._stepper_key == key:
+            stepper = self._stepper                     # same set-up: reuse (assigned only after the checks)
+        else:
+            try:
+                stepper = self._new_stepper(params, experiment)
+            except (P.ParameterError, ValueError) as exc:
+                raise ValueError(f"{where}: {exc}") from None
+        statecodec.check_like(solver_state, self._template(params, experiment), f"{where}: solver state")
+        try:
+            stepper.check_state(solver_state)
+        except ValueError as exc:
+            raise ValueError(f"{where}: solver state: {exc}") from None
+        return params, inputs, experiment, stepper, solver_state
+
+    def _template(self, params, experiment):
+        """The structure of every solver state for these parameters: a fresh stepper's
+        state and one after a free step (which fills the optional entries)."""
+        key = _key(params, experiment)
+        if key not in self._templates:
+            fresh = self._new_stepper(params, experiment)
+            stepped = self._new_stepper({**params, "land_on_communication_points": False}, experiment)
+            stepped.step(1e-9, 0.0, 0.0)
+            self._templates = {key: statecodec.template(fresh.get_state(), stepped.get_state())}
+        return self._templates[key]
 
 
-def _buffered(i):
+def _finite(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _key(params, experiment):
+    return tuple(params[k] for k in PARAM_KEYS) + tuple(experiment)
+
+
+def _check_param(key, value):
+    """Raise ParameterError unless `value` is a valid value of parameter `key`, of the
+    variable's type (a state from outside must not smuggle in a float N or a string x0)."""
+    if key == "land_on_communication_points":
+        if not isinstance(value, bool):
+            raise P.ParameterError(f"{key}: got {value!r}, expected true or false")
+    elif key in EXTRA:
+        if not _finite(value) or value < 0 or (key == "v_nominal" and value <= 0):
+            raise P.ParameterError(f"{key}: got {value!r}, expected a finite number "
+                                   f"{'> 0' if key == 'v_nominal' else '>= 0'} ({EXTRA[key][0]})")
+    elif key in ("a", "volume") and _finite(value) and value == 0.0:
+        pass                          # the other layout's key: 0 = unused
+    else:
+        if key != "layout" and P.SPEC[key].kind is int and (isinstance(value, bool) or not isinstance(value, int)):
+            raise P.ParameterError(f"{key}: got {value!r}, expected {P.SPEC[key].range_text()}")
+        P.check_value(key, value)
+
+
+def _parameters(params: dict) -> P.Parameters:
+    flat = {k: params[k] for k in ("layout", *P.SPEC)}
+    flat["volume" if flat["layout"] == "v-shaped" else "a"] = None
+    return P.Parameters(**flat)
+
+
+def _buffered(i, writable):
     def get(self):
         return float(self._c_real_buf[i])
 
     def put(self, value):
         self._c_real_buf[i] = value
-    return property(get, put)
+    # outputs have no setter: pythonfmu would otherwise give them one
+    return property(get, put if writable else None)
 
 
 for _i, _name in enumerate(FAST):
-    setattr(DFAActuator, _name, _buffered(_i))
+    setattr(DFAActuator, _name, _buffered(_i, _name in INPUT_INFO))

@@ -1,5 +1,8 @@
 """Run through tests/test_fmu.py, in a separate process. The FMU: build, validation, fmpy simulation against the direct model, life cycle,
-state rollback, error paths, a C host, and loading a copy in a fresh process."""
+state rollback, error paths, a C host, and loading a copy in a fresh process; a hostile C
+host with faults injected at every entry point (tests/fmu_host_faults.c,
+tests/fmu_faulty.py); a fuzz of FMI call sequences against the state table."""
+import dataclasses
 import os
 import shutil
 import subprocess
@@ -322,3 +325,541 @@ def test_cosimulation_with_drive_and_load(fmu_path, tmp_path):
     assert abs(np.mean(inv[3500:]) - np.mean(inv[500:1000])) <= 0.01 * np.mean(inv[500:1000])
     early, late = np.mean(dc[1500:2000]), np.mean(dc[3500:])
     assert late < 0.98 * early and late > 0.5 * early
+
+
+# ---------------------------------------------------------------------- fault injection
+# Scenarios of tests/fmu_host_faults.c: one per injected fault's entry point (the test
+# slave tests/fmu_faulty.py), and the generic abuse of the C binary.
+FAULT_SCENARIOS = ("instantiate", "invalid_instance", "arguments", "states", "setup_experiment",
+                   "enter_initialization_mode", "exit_initialization_mode", "terminate", "do_step", "do_step_solver",
+                   "do_step_wrong_type", "do_step_false", "get_real", "get_integer", "get_boolean", "get_string",
+                   "set_real", "set_integer", "set_boolean", "set_string", "_get_fmu_state", "_set_fmu_state",
+                   "_fmu_state_to_bytes", "_fmu_state_from_bytes", "log_queue")
+
+
+@pytest.fixture(scope="module")
+def fault_run(tmp_path_factory):
+    """Build the fault-injection FMU, make the bad-resource copies (defect 1: an unknown
+    slave module, an unknown key in dfa_params.toml), compile the hostile C host and run
+    it once; returns its result lines by scenario."""
+    if not sys.platform.startswith("linux") or shutil.which("gcc") is None:
+        pytest.skip("needs Linux and gcc")
+    from fmu.build import build_actuator_variant
+    tmp = tmp_path_factory.mktemp("faults")
+    path = build_actuator_variant(Path(__file__).with_name("fmu_faulty.py"), "FaultyActuator", tmp / "Faulty.fmu")
+    md_f = fmpy.read_model_description(str(path))
+    root = Path(fmpy.extract(str(path), str(tmp / "faulty")))
+    bad_module, bad_params = tmp / "bad_module", tmp / "bad_params"
+    for d in (bad_module, bad_params):
+        shutil.copytree(root, d)
+    (bad_module / "resources" / "slavemodule.txt").write_text("no_such_module\n")
+    toml = bad_params / "resources" / "dfa_params.toml"
+    toml.write_text(toml.read_text().replace("[geometry]\n", "[geometry]\nbogus_key = 1.0\n", 1))
+    exe = tmp / "fmu_host_faults"
+    cc = subprocess.run(["gcc", "-O1", "-o", str(exe), str(Path(__file__).with_name("fmu_host_faults.c")),
+                         "-I", str(Path(fmpy.__file__).parent / "c-code"), "-ldl"], capture_output=True, text=True)
+    assert cc.returncode == 0, cc.stderr
+    r = vr(md_f)
+    so = root / "binaries" / "linux64" / f"{md_f.coSimulation.modelIdentifier}.so"
+    env = {k: v for k, v in os.environ.items() if k not in ("LD_PRELOAD", "LD_LIBRARY_PATH", "PYTHONPATH",
+                                                            "PYTHONHOME")}
+    args = [str(exe), str(so), (root / "resources").as_uri(), str(root / "resources"),
+            (bad_module / "resources").as_uri(), (bad_params / "resources").as_uri()]
+    args += [str(r[k]) for k in ("voltage", "force", "stroke", "rho_l", "rho_f", "N", "scheme",
+                                 "land_on_communication_points")]
+    out = subprocess.run(args, capture_output=True, text=True, timeout=600, env=env)
+    by = {}
+    for line in out.stdout.splitlines():
+        word, _, rest = line.partition(" ")
+        if word in ("ok", "FAIL"):
+            by.setdefault(rest.split(":")[0], []).append((word == "ok", line))
+    return out, by
+
+
+def test_fault_host_survives(fault_run):
+    """The hostile host exits normally after every scenario, and runs no other."""
+    out, by = fault_run
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    assert out.stdout.splitlines()[-1].startswith("done"), out.stdout[-3000:]
+    assert set(by) == set(FAULT_SCENARIOS), set(by) ^ set(FAULT_SCENARIOS)
+
+
+@pytest.mark.parametrize("scenario", FAULT_SCENARIOS)
+def test_fault_scenario(fault_run, scenario):
+    """Each call of the scenario returned the documented status with a log line, and the
+    instance behaved as documented afterwards (see tests/fmu_host_faults.c)."""
+    _, by = fault_run
+    results = by.get(scenario, [])
+    assert len(results) >= 2, results
+    assert all(ok for ok, _ in results), "\n".join(line for ok, line in results if not ok)
+
+
+# ---------------------------------------------------------------------- call-sequence fuzz
+# Random sequences of FMI calls with random arguments against the actuator through
+# fmpy's bound functions. For every call the status must be the one an oracle built from
+# the state table (fmu/c/fmi2_python.c, FMI 2.0.x section 4.2.4) predicts, every
+# fmi2Error on a live instance must come with a log line, and after every OK doStep the
+# outputs are finite and the stroke >= 0.
+hypothesis = pytest.importorskip("hypothesis")
+import math  # noqa: E402
+from ctypes import byref, c_size_t, create_string_buffer  # noqa: E402
+
+from fmpy.fmi2 import (fmi2Boolean, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,  # noqa: E402
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate, fmi2Integer, fmi2Real,
+                       fmi2String, fmi2ValueReference)
+from hypothesis import HealthCheck, given, settings, strategies as hs  # noqa: E402
+
+from dfa_model import parameters as P  # noqa: E402
+from dfa_model.model import DFAModel  # noqa: E402
+
+OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
+INST, INIT, SC, SF, TERM, ERR = ("instantiated", "initializationMode", "stepComplete", "stepFailed", "terminated",
+                                 "error")
+ANY = {INST, INIT, SC, SF, TERM, ERR}
+GET = {INIT, SC, SF, TERM, ERR}
+SET = {INST, INIT, SC}
+# the oracle's copy of the state table: where each call is allowed
+ALLOWED = {"setup": {INST}, "enter": {INST}, "exit": {INIT}, "terminate": {SC, SF}, "reset": ANY, "get_real": GET,
+           "set_real": SET, "set_int": SET, "set_bool": SET, "set_str": SET, "get_state": ANY, "set_state": ANY,
+           "free_state": ANY, "serialize": ANY, "deserialize": ANY, "do_step": {SC}}
+X_E = DFAModel(preset("vshape-table1")).kin.x_e
+FUZZ_STATS = {"sequences": 0, "calls": 0, "statuses": {}}
+NAN, INF = float("nan"), float("inf")
+KEYS = ("layout", "rho_l", "rho_t_s", "N", "scheme", "law")      # the parameter-file keys the fuzz sets
+
+
+class Oracle:
+    """What the FMU should answer: the state machine, the time, the experiment and the
+    parameters the fuzz can change."""
+
+    def __init__(self):
+        p0 = preset("vshape-table1")
+        self.state, self.time, self.start, self.stop = INST, 0.0, 0.0, None
+        self.params = {**{k: getattr(p0, k) for k in KEYS}, "x0": 0.0}
+        self.start_params = dict(self.params)
+
+    def snapshot(self):
+        return (self.state, self.time, self.start, self.stop, dict(self.params))
+
+    def restore(self, snap):
+        self.state, self.time, self.start, self.stop, params = snap
+        self.params = dict(params)
+
+    def exit_status(self):
+        """OK, WARNING (a changed parameter that takes no part) or ERROR (no model)."""
+        p = self.params
+        try:
+            if p["layout"] != "v-shaped":
+                return ERROR                     # peano-hasel needs a volume, which stays 0 here
+            # as the FMU builds them: every key given (one that takes no part is only warned
+            # about), so the constructor, not replace(), which refuses such a key
+            params = P.Parameters(**{**dataclasses.asdict(preset("vshape-table1")), **{k: p[k] for k in KEYS}})
+            stop = self.stop if self.stop is not None and self.stop > self.start else None
+            Stepper(params, v_nominal=6000.0, x0=p["x0"], t0=self.start, t_end=stop)
+        except ValueError:
+            return ERROR
+        ignored = [k for k in KEYS[1:] if not P.applies(params, k) and p[k] != self.start_params[k]]
+        return WARNING if ignored else OK
+
+    def set_ok(self, name, kind, value, kinds):
+        """Whether fmi2Set<kind> of `value` on variable `name` is accepted now."""
+        if name is None or kinds[name] != kind or name == "stroke":     # unknown, wrong type, output
+            return False
+        if name in ("voltage", "force"):                                  # inputs
+            return math.isfinite(value)
+        if self.state not in (INST, INIT):                                # fixed parameters
+            return False
+        if name == "land_on_communication_points":
+            return True
+        if name == "x0":
+            return math.isfinite(value) and value >= 0
+        try:
+            P.check_value(name, value)
+            return True
+        except P.ParameterError:
+            return False
+
+
+REALS = ("voltage", "force", "stroke", "rho_l", "rho_t_s", "x0", "N", None)     # None: an unknown reference
+REAL_VALUES = (6000.0, -6000.0, 0.0, 5.0, -50.0, 1e12, 200.0, 1e-4, -1.0, NAN, INF, -INF, 1e300)
+CALL = hs.one_of(
+    hs.tuples(hs.just("setup"), hs.sampled_from((0.0, 0.5, NAN)), hs.sampled_from((None, 0.05, 1.0, 0.2, -1.0))),
+    hs.tuples(hs.sampled_from(("enter", "exit", "terminate", "reset", "get_state", "free_instance"))),
+    hs.tuples(hs.just("set_real"), hs.sampled_from(REALS), hs.sampled_from(REAL_VALUES)),
+    hs.tuples(hs.just("set_int"), hs.sampled_from(("N", "rho_l", None)), hs.sampled_from((81, 41, 2, -5))),
+    hs.tuples(hs.just("set_bool"), hs.sampled_from(("land_on_communication_points", "N")), hs.booleans()),
+    hs.tuples(hs.just("set_str"), hs.sampled_from(("scheme", "law", "layout")),
+              hs.sampled_from(("paper", "continuum", "linear", "constant", "peano-hasel", "bogus", ""))),
+    hs.tuples(hs.just("get_real"), hs.sampled_from(REALS)),
+    hs.tuples(hs.just("do_step"), hs.sampled_from(("now", "now", "now", "next", "zero", "nan", "jitter")),
+              hs.sampled_from((1e-3, 1e-3, 5e-4, 0.01, 1e-9, 0.0, -1e-3, NAN, INF))),
+    hs.tuples(hs.sampled_from(("set_state", "free_state", "serialize")), hs.integers(0, 5)),
+    hs.tuples(hs.just("deserialize"), hs.integers(0, 5),
+              hs.sampled_from(("none", "none", "flip", "truncate", "extend", "garbage", "empty"))),
+)
+SETTERS = {"set_real": ("Real", fmi2Real, "fmi2SetReal"), "set_int": ("Integer", fmi2Integer, "fmi2SetInteger"),
+           "set_bool": ("Boolean", fmi2Boolean, "fmi2SetBoolean"), "set_str": ("String", fmi2String, "fmi2SetString")}
+
+
+class Fuzzer:
+    def __init__(self, md, unzipped):
+        self.md, self.unzipped, self.vr = md, unzipped, vr(md)
+        self.kinds = {v.name: v.type for v in md.modelVariables}
+        self.logs = []
+
+        def log(env, name, status, cat, msg):
+            self.logs.append((status, msg))
+        self.callbacks = fmi2CallbackFunctions()          # kept alive with the fuzzer
+        self.callbacks.logger = fmi2CallbackLoggerTYPE(log)
+        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(lambda n, size: None)
+        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(lambda p: None)
+        self.handles, self.blobs = [], []      # [(pointer value, oracle snapshot, live)], [(bytes, snapshot)]
+        self.new_instance()
+
+    def new_instance(self):
+        self.s = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipped,
+                           modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName="fuzz")
+        self.s.instantiate(callbacks=self.callbacks)
+        self.o = Oracle()
+
+    def invoke(self, fname, *args, logged=True):
+        """The status of one of fmpy's bound FMI functions (they raise for Discard and up)."""
+        self.logs.clear()
+        try:
+            status = getattr(self.s, fname)(self.s.component, *args)
+        except FMICallException as exc:
+            status = exc.status
+        FUZZ_STATS["calls"] += 1
+        FUZZ_STATS["statuses"][status] = FUZZ_STATS["statuses"].get(status, 0) + 1
+        assert status in (OK, WARNING, DISCARD, ERROR), (fname, status)
+        assert status != ERROR or self.logs or not logged, f"{fname}: fmi2Error without a log line"
+        return status
+
+    def expect(self, name, want, fname, *args):
+        state = self.o.state
+        got = self.invoke(fname, *args)
+        want = want if state in ALLOWED[name] else ERROR
+        assert got == want, (name, args, state, got, want, self.logs[-3:])
+        return got
+
+    def run(self, c):
+        op, o = c[0], self.o
+        if op == "setup":
+            start, stop = c[1], c[2]
+            ok = math.isfinite(start) and (stop is None or stop >= start)
+            if self.expect(op, OK if ok else ERROR, "fmi2SetupExperiment", fmi2Boolean(False), fmi2Real(0.0),
+                           fmi2Real(start), fmi2Boolean(stop is not None),
+                           fmi2Real(0.0 if stop is None else stop)) == OK:
+                o.time = o.start = start
+                o.stop = stop
+        elif op == "enter":
+            if self.expect(op, OK, "fmi2EnterInitializationMode") == OK:
+                o.state = INIT
+        elif op == "exit":
+            if self.expect(op, o.exit_status() if o.state == INIT else ERROR, "fmi2ExitInitializationMode") < ERROR:
+                o.state = SC
+                self.check_outputs()
+        elif op == "terminate":
+            if self.expect(op, OK, "fmi2Terminate") == OK:
+                o.state = TERM
+        elif op == "reset":
+            if self.expect(op, OK, "fmi2Reset") == OK:
+                self.o = Oracle()
+        elif op == "free_instance":
+            self.s.fmi2FreeInstance(self.s.component)
+            # the freed pointer (before anything can reuse its memory): refused, no log to write to
+            assert self.invoke("fmi2Terminate", logged=False) == ERROR
+            self.new_instance()
+            self.handles = [(h, snap, False) for h, snap, _ in self.handles]
+        elif op in SETTERS:
+            kind, ctype, fname = SETTERS[op]
+            name, value = c[1], c[2]
+            ok = o.set_ok(name, kind, value, self.kinds)
+            arg = (ctype * 1)(value.encode() if kind == "String" else value)
+            if self.expect(op, OK if ok else ERROR, fname, self.refs(name), 1, arg) == OK and name in o.params:
+                o.params[name] = value
+        elif op == "get_real":
+            known = c[1] is not None and self.kinds[c[1]] == "Real"
+            self.expect(op, OK if known else ERROR, "fmi2GetReal", self.refs(c[1]), 1, (fmi2Real * 1)())
+        elif op == "do_step":
+            self.do_step(c[1], c[2])
+        elif op == "get_state":
+            p = fmi2FMUstate()
+            if self.expect(op, OK, "fmi2GetFMUstate", byref(p)) == OK:
+                self.new_handle(p.value, o.snapshot())
+        elif op in ("set_state", "free_state", "serialize"):
+            self.state_call(op, c[1])
+        else:
+            self.deserialize(c[1], c[2])
+
+    def new_handle(self, h, snap):
+        # a freed state's address may be handed out again: older entries with that
+        # pointer now name the new state
+        self.handles = [e for e in self.handles if e[0] != h] + [(h, snap, True)]
+
+    def refs(self, name):
+        return (fmi2ValueReference * 1)(self.vr[name] if name is not None else 99999)
+
+    def do_step(self, which, h):
+        o = self.o
+        t = {"now": o.time, "next": o.time + 1.0, "zero": 0.0, "nan": NAN, "jitter": o.time * (1 + 1e-12)}[which]
+        ok = (math.isfinite(t) and math.isfinite(h) and h > 0 and abs(t - o.time) <= 1e-9 * max(1.0, abs(o.time))
+              and (o.stop is None or t + h <= o.stop + 1e-9 * max(1.0, abs(o.stop))))
+        if self.expect("do_step", OK if ok else ERROR, "fmi2DoStep", fmi2Real(t), fmi2Real(h),
+                       fmi2Boolean(True)) == OK:
+            o.time = t + h
+            self.check_outputs()
+
+    def check_outputs(self):
+        y = self.s.getReal([self.vr[k] for k in ("stroke", "velocity", "zipped_length", "zipping_angle",
+                                                 "electrostatic_force", "current", "capacitance", "stored_energy")])
+        assert all(math.isfinite(v) for v in y), y
+        assert 0.0 <= y[0] <= X_E, (y, X_E)
+
+    def state_call(self, op, k):
+        h, snap, live = self.handles[k % len(self.handles)] if self.handles else (0xDEAD0, None, False)
+        p = fmi2FMUstate(h)                                     # 0xDEAD0: never handed out
+        want = OK if live else ERROR
+        if op == "set_state":
+            if self.expect(op, want, "fmi2SetFMUstate", p) == OK:
+                self.o.restore(snap)
+        elif op == "free_state":
+            if self.expect(op, want, "fmi2FreeFMUstate", byref(p)) == OK:
+                assert p.value is None
+                self.handles = [(x, s_, lv and x != h) for x, s_, lv in self.handles]
+        else:
+            size = c_size_t()
+            if self.expect(op, want, "fmi2SerializedFMUstateSize", p, byref(size)) == OK:
+                buf = create_string_buffer(size.value)
+                assert self.expect(op, OK, "fmi2SerializeFMUstate", p, buf, size) == OK
+                self.blobs.append((buf.raw, snap))
+
+    def deserialize(self, k, how):
+        data, snap = self.blobs[k % len(self.blobs)] if self.blobs else (b"", None)
+        m = len(data) // 2
+        bad = {"none": data, "flip": data[:m] + bytes([data[m] ^ 1]) + data[m + 1:] if data else b"x",
+               "truncate": data[:-7], "extend": data + b"\0", "garbage": b"FMI2PYST" + b"\1" * 90,
+               "empty": b""}[how]
+        buf = create_string_buffer(bad, max(len(bad), 1))
+        p = fmi2FMUstate()
+        ok = how == "none" and snap is not None
+        if self.expect("deserialize", OK if ok else ERROR, "fmi2DeSerializeFMUstate", buf, len(bad), byref(p)) == OK:
+            self.new_handle(p.value, snap)
+        else:
+            assert p.value is None
+
+    def close(self):
+        self.s.fmi2FreeInstance(self.s.component)
+
+
+@settings(max_examples=300, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+@given(calls=hs.lists(CALL, min_size=10, max_size=80))
+def _fuzz_sequence(env, calls):
+    f = Fuzzer(*env)
+    FUZZ_STATS["sequences"] += 1
+    # two sequences in three start from a valid run-up, some of them setting a parameter
+    # that takes no part (fmi2Warning at exit)
+    run_up = [("setup", 0.0, None), ("enter",), ("exit",)]
+    if len(calls) % 4 == 1:
+        run_up.insert(2, ("set_real", "rho_t_s", 200.0))
+    try:
+        for c in run_up if len(calls) % 3 else ():
+            f.run(c)
+        for c in calls:
+            f.run(c)
+    finally:
+        f.close()
+
+
+def test_fmi_call_sequence_fuzz(md, unzipped):
+    """300 random call sequences: the process survives, every status matches
+    the oracle, outputs stay finite (asserted call by call)."""
+    warnings.simplefilter("ignore", PhysicsWarning)
+    before = FUZZ_STATS["sequences"]
+    _fuzz_sequence((md, unzipped))
+    assert FUZZ_STATS["sequences"] - before >= 200, FUZZ_STATS
+    assert all(FUZZ_STATS["statuses"].get(k, 0) > 0 for k in (OK, WARNING, ERROR)), FUZZ_STATS
+    print("fuzz statistics:", FUZZ_STATS)
+
+
+def test_stroke_within_x_e(md, unzipped):
+    """The stroke output lies in [0, x_e] (asserted call by call in the fuzz too), in a
+    long run with no load, where the front reaches the electrode end."""
+    r = vr(md)
+    s = slave(md, unzipped)
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    s.setReal([r["voltage"], r["force"]], [6000.0, 0.0])       # no load: zips fully in 3 s
+    x = []
+    for k in range(300):
+        s.doStep(k * 0.01, 0.01)
+        x.append(s.getReal([r["stroke"]])[0])
+    s.freeInstance()
+    assert min(x) >= 0 and max(x) <= X_E, (min(x), max(x), X_E)
+    assert max(x) > 0.999 * X_E           # it does reach the stop (it ran 1e-7 m past it before)
+
+
+# ---------------------------------------------------------------------- targeted
+def _raw(s, fname, *args):
+    """Status of a bound FMI function (fmpy raises for Discard and up)."""
+    try:
+        return getattr(s, fname)(s.component, *args)
+    except FMICallException as exc:
+        return exc.status
+
+
+@pytest.mark.parametrize("kind", ["vshape", "peano"])
+def test_ignored_parameters_warn(md, unzipped, tmp_path, capsys, kind):
+    """A parameter that takes no part (parameters.applies), changed from its start value,
+    is named in a log line saying it is ignored, and exitInitializationMode returns
+    fmi2Warning; unchanged ones are not mentioned."""
+    if kind == "peano":
+        path = build_fmu(preset("peano-fig10"), tmp_path / "peano.fmu")
+        md, unzipped = fmpy.read_model_description(str(path)), fmpy.extract(str(path), str(tmp_path / "unz"))
+        changed = {"a": 0.02}
+    else:
+        changed = {"m_rho": -1e5, "rho_t_s": 200.0}            # law constant, scheme continuum
+    r = vr(md)
+    for values, want in ((changed, 1), ({}, 0)):
+        s = slave(md, unzipped)
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        for key, value in values.items():
+            s.setReal([r[key]], [value])
+        capsys.readouterr()
+        assert _raw(s, "fmi2ExitInitializationMode") == want
+        log = capsys.readouterr().out
+        for key in changed:
+            assert (f"parameter {key} = " in log and "is ignored" in log) == bool(values), log
+        s.doStep(0.0, H)
+        s.freeInstance()
+
+
+def _actuator():
+    """The actuator slave in this process (plain Python, no FMU): for the state checks."""
+    sys.path.insert(0, str(Path(__file__).parents[1] / "fmu"))
+    try:
+        from dfa_actuator import DFAActuator
+    finally:
+        sys.path.pop(0)
+    a = DFAActuator(instance_name="direct", resources=None)
+    a.setup_experiment(0.0)
+    a.exit_initialization_mode()
+    a._c_real_buf[:2] = (6000.0, 5.0)
+    for k in range(5):
+        a.do_step(k * H, H)
+    return a
+
+
+def _bad_states(state):
+    """Crafted variants of a valid state, each with one thing wrong."""
+    from dfa_model import statecodec
+    st = state["stepper"]
+
+    def with_solver(i, v):
+        return {**state, "stepper": st[:i] + (v,) + st[i + 1:]}
+    ist = st[8].copy()
+    ist[4] = 1e9                                                    # stuck index far out of range
+    return {
+        "not a dict": [state],
+        "missing key": {k: v for k, v in state.items() if k != "inputs"},
+        "parameter out of range": {**state, "params": {**state["params"], "rho_l": -1.0}},
+        "float where an integer goes": {**state, "params": {**state["params"], "N": 81.0}},
+        "unknown parameter": {**state, "params": {**state["params"], "bogus": 1.0}},
+        "NaN input": {**state, "inputs": (float("nan"), 5.0)},
+        "inconsistent geometry": {**state, "params": {**state["params"], "a": 0.06}},
+        "array of the wrong shape": with_solver(6, np.zeros(3)),
+        "array of the wrong dtype": with_solver(6, st[6].astype(np.int64)),
+        "NaN in the solver state": with_solver(6, np.full_like(st[6], np.nan)),
+        "solver tuple too short": {**state, "stepper": st[:-1]},
+        "stuck index out of range": with_solver(8, ist),
+        "code instead of data": {**state, "stepper": statecodec},
+    }
+
+
+def test_set_state_is_atomic():
+    """A refused state changes nothing: the slave validates all of it before it assigns."""
+    from dfa_model import statecodec
+    a = _actuator()
+    good = a._get_fmu_state()
+    before = statecodec.encode(good)
+    for name, bad in _bad_states(good).items():
+        with pytest.raises(ValueError):
+            a._set_fmu_state(bad)
+        assert statecodec.encode(a._get_fmu_state()) == before, name
+    a._set_fmu_state(good)
+    assert statecodec.encode(a._get_fmu_state()) == before
+
+
+def _reframe(data, payload):
+    """Serialized bytes with another payload, header length and checksum fixed up (a
+    crafted state passes the binary's integrity checks and meets the slave's)."""
+    import struct
+    import zlib
+    head = bytearray(data[:56])
+    head[48:56] = struct.pack("<Q", len(payload))
+    head[44:48] = struct.pack("<I", zlib.crc32(bytes(head[:44]) + bytes(head[48:]) + payload))
+    return bytes(head) + payload
+
+
+def test_crafted_serialized_states_are_refused(md, unzipped, tmp_path, capsys):
+    """Bytes from the host are never unpickled; crafted, truncated, oversized or
+    corrupted states are refused with fmi2Error and a message, and the instance goes on."""
+    import pickle
+    from dfa_model import statecodec
+
+    class Boom:
+        def __reduce__(self):
+            return (open, (str(tmp_path / "pwned"), "w"))
+    r = vr(md)
+    s = slave(md, unzipped)
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    s.setReal([r["voltage"], r["force"]], [6000.0, 5.0])
+    s.doStep(0.0, H)
+    data = s.serializeFMUstate(s.getFMUstate())
+    assert _reframe(data, data[56:]) == data                   # the test's framing is the binary's
+    good = statecodec.decode(data[56:])
+    crafted = {name: _reframe(data, statecodec.encode(bad)) for name, bad in _bad_states(good).items()
+               if name != "code instead of data"}
+    crafted["pickle payload"] = _reframe(data, pickle.dumps(Boom()))
+    crafted["pickle as the whole state"] = pickle.dumps(Boom())
+    skeleton_deep = b'["L",[' * 200 + b']]' * 200
+    crafted["deep nesting"] = _reframe(data, statecodec._HEAD.pack(statecodec.MAGIC, 1, 0, len(skeleton_deep), 0)
+                                       + skeleton_deep)
+    huge = b'["A","f8",[1000000000,1000000000]]'
+    crafted["huge array"] = _reframe(data, statecodec._HEAD.pack(statecodec.MAGIC, 1, 0, len(huge), 0) + huge)
+    crafted["oversized length"] = data[:48] + (2 ** 62).to_bytes(8, "little") + data[56:]
+    crafted["corrupted"] = data[:100] + bytes([data[100] ^ 0xFF]) + data[101:]
+    crafted["truncated"] = data[:-1]
+    for name, blob in crafted.items():
+        capsys.readouterr()
+        with pytest.raises(FMICallException) as exc:
+            s.deSerializeFMUstate(blob)
+        assert exc.value.status == 3, name
+        log = capsys.readouterr().out
+        assert "fmi2DeSerializeFMUstate" in log, (name, log)
+    assert not (tmp_path / "pwned").exists()
+    s.doStep(H, H)                                             # the instance goes on
+    s.setFMUstate(s.deSerializeFMUstate(data))                 # and the genuine state still restores
+    s.doStep(H, H)
+    s.freeInstance()
+
+
+def test_outputs_cannot_be_set(md, unzipped, capsys):
+    """fmi2SetReal on an output is refused in every state, fast path included."""
+    r = vr(md)
+    s = slave(md, unzipped)
+    s.setupExperiment(startTime=0.0)
+    for step in ("instantiated", "init", "running"):
+        if step == "init":
+            s.enterInitializationMode()
+        elif step == "running":
+            s.exitInitializationMode()
+        with pytest.raises(FMICallException):
+            s.setReal([r["stroke"]], [1.0])
+        assert "it is an output" in capsys.readouterr().out
+    assert s.getReal([r["stroke"]])[0] == 0.0
+    s.freeInstance()

@@ -1,33 +1,159 @@
 /* FMI 2.0 co-simulation binary for a pythonfmu slave class (compiled by fmu/build.py in
- * place of pythonfmu's own export library).
+ * place of pythonfmu's own export library). The Python side is pythonfmu's Fmi2Slave API
+ * unchanged; every slave (the actuator and both companions) runs on this file.
  *
  * Why our own: pythonfmu 0.7's library turns every Python exception into fmi2Fatal and
- * destroys the instance, so an invalid parameter value kills the simulation, and it
- * finalizes the interpreter from a library destructor, which crashes Python hosts at
- * exit. Here an exception becomes fmi2Error with its message in the log, and the
- * instance stays usable (FMI 2.0: after fmi2Error the master may reset, restore a
- * saved state, or free it). The Python side is pythonfmu's Fmi2Slave API unchanged.
+ * destroys the instance, and it finalizes the interpreter from a library destructor,
+ * which crashes Python hosts at exit.
+ *
+ * What this file guarantees: it never crashes its host. Every pointer from the host is
+ * checked before use, every Python exception becomes fmi2Error with its message logged,
+ * and the instance follows one FMI 2.0 state machine (TABLE below) kept here, in C:
+ *
+ * - A call REJECTED for its arguments or its state (not allowed now, a NULL array, an
+ *   unknown value reference, a set on an output, a NaN, h <= 0, a time that does not
+ *   continue the run, a value the slave refuses) returns fmi2Error and changes nothing:
+ *   the instance stays in its state and can be used on. FMI 2.0 (section 2.1.3) lets an
+ *   FMU require a reset or a restore after any fmi2Error; this is more lenient, and a
+ *   master that resets or restores still works.
+ * - A call that FAILS while computing (the slave raises inside do_step or terminate)
+ *   puts the instance in the error state: then getters, the FMU-state functions,
+ *   fmi2SetFMUstate (back to a state saved earlier), fmi2Reset and fmi2FreeInstance are
+ *   accepted, as FMI 2.0 section 4.2.4's table allows in the error state.
  *
  * Fast path: a slave may expose `_c_real_vrs` (a tuple of value references) and
- * `_c_real_buf` (a writable float64 buffer of the same length). fmi2GetReal and
- * fmi2SetReal on those references then read and write the buffer without entering
- * Python; writes reject NaN and infinity with fmi2Error. The slave keeps the buffer
- * alive and in step with its attributes.
+ * `_c_real_buf` (a writable float64 buffer of the same length, kept for the slave's
+ * lifetime). fmi2GetReal / fmi2SetReal on those references read and write the buffer
+ * without entering Python; the access rules are checked from per-reference flags.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
 #include <dlfcn.h>
 #include <math.h>
+#include <pthread.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
 
-#define NFAST 64
+/* ------------------------------------------------------------------ state machine */
+/* FMI 2.0.x, section 4.2.4 "State Machine of Calling Sequence from Master to Slave".
+ * stepInProgress and stepCanceled are never entered: doStep is synchronous. */
+enum {
+    ST_INSTANTIATED = 1 << 0,
+    ST_INIT = 1 << 1,
+    ST_STEP_COMPLETE = 1 << 2,
+    ST_STEP_FAILED = 1 << 3,
+    ST_TERMINATED = 1 << 4,
+    ST_ERROR = 1 << 5,
+    ST_STEP_IN_PROGRESS = 1 << 6, /* never entered: only to name what the table asks */
+};
+#define ST_ANY (ST_INSTANTIATED | ST_INIT | ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED | ST_ERROR)
+#define ST_GET (ST_INIT | ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED | ST_ERROR)
+#define ST_SET (ST_INSTANTIATED | ST_INIT | ST_STEP_COMPLETE)
+
+static const char *STATE_NAMES[] = {"instantiated", "initializationMode", "stepComplete", "stepFailed",
+                                    "terminated",   "error",              "stepInProgress"};
+
+enum Fn {
+    F_SetDebugLogging, F_SetupExperiment, F_EnterInitializationMode, F_ExitInitializationMode, F_Terminate, F_Reset,
+    F_GetReal, F_GetInteger, F_GetBoolean, F_GetString, F_SetReal, F_SetInteger, F_SetBoolean, F_SetString,
+    F_GetFMUstate, F_SetFMUstate, F_FreeFMUstate, F_SerializedFMUstateSize, F_SerializeFMUstate,
+    F_DeSerializeFMUstate, F_GetDirectionalDerivative, F_SetRealInputDerivatives, F_GetRealOutputDerivatives,
+    F_DoStep, F_CancelStep, F_GetStatus, F_GetRealStatus, F_GetIntegerStatus, F_GetBooleanStatus,
+    F_GetStringStatus, NFN
+};
+
+/* The states in which each function may be called (FMI 2.0.x section 4.2.4's table;
+ * fmi2SetXXX is further narrowed per variable, see set_mask). Instantiate and
+ * FreeInstance, allowed in every state, have no row. */
+static const struct {
+    const char *name;
+    unsigned allowed;
+} TABLE[NFN] = {
+    [F_SetDebugLogging] = {"fmi2SetDebugLogging", ST_ANY},
+    [F_SetupExperiment] = {"fmi2SetupExperiment", ST_INSTANTIATED},
+    [F_EnterInitializationMode] = {"fmi2EnterInitializationMode", ST_INSTANTIATED},
+    [F_ExitInitializationMode] = {"fmi2ExitInitializationMode", ST_INIT},
+    [F_Terminate] = {"fmi2Terminate", ST_STEP_COMPLETE | ST_STEP_FAILED},
+    [F_Reset] = {"fmi2Reset", ST_ANY},
+    [F_GetReal] = {"fmi2GetReal", ST_GET},
+    [F_GetInteger] = {"fmi2GetInteger", ST_GET},
+    [F_GetBoolean] = {"fmi2GetBoolean", ST_GET},
+    [F_GetString] = {"fmi2GetString", ST_GET},
+    [F_SetReal] = {"fmi2SetReal", ST_SET},
+    [F_SetInteger] = {"fmi2SetInteger", ST_SET},
+    [F_SetBoolean] = {"fmi2SetBoolean", ST_SET},
+    [F_SetString] = {"fmi2SetString", ST_SET},
+    [F_GetFMUstate] = {"fmi2GetFMUstate", ST_ANY},
+    [F_SetFMUstate] = {"fmi2SetFMUstate", ST_ANY},
+    [F_FreeFMUstate] = {"fmi2FreeFMUstate", ST_ANY},
+    [F_SerializedFMUstateSize] = {"fmi2SerializedFMUstateSize", ST_ANY},
+    [F_SerializeFMUstate] = {"fmi2SerializeFMUstate", ST_ANY},
+    [F_DeSerializeFMUstate] = {"fmi2DeSerializeFMUstate", ST_ANY},
+    [F_GetDirectionalDerivative] = {"fmi2GetDirectionalDerivative", ST_GET},
+    [F_SetRealInputDerivatives] = {"fmi2SetRealInputDerivatives", ST_SET},
+    [F_GetRealOutputDerivatives] = {"fmi2GetRealOutputDerivatives",
+                                    ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED | ST_ERROR},
+    [F_DoStep] = {"fmi2DoStep", ST_STEP_COMPLETE},
+    [F_CancelStep] = {"fmi2CancelStep", ST_STEP_IN_PROGRESS},
+    [F_GetStatus] = {"fmi2GetStatus", ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
+    [F_GetRealStatus] = {"fmi2GetRealStatus", ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
+    [F_GetIntegerStatus] = {"fmi2GetIntegerStatus", ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
+    [F_GetBooleanStatus] = {"fmi2GetBooleanStatus", ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
+    [F_GetStringStatus] = {"fmi2GetStringStatus", ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
+};
+
+static const char *state_name(unsigned s)
+{
+    for (int i = 0; i < 7; i++)
+        if (s == (1u << i)) return STATE_NAMES[i];
+    return "unknown";
+}
+
+static void states_text(unsigned mask, char *out, size_t n)
+{
+    out[0] = 0;
+    for (int i = 0; i < 7; i++) {
+        if (!(mask & (1u << i))) continue;
+        size_t k = strlen(out);
+        snprintf(out + k, n - k, "%s%s", k ? ", " : "", STATE_NAMES[i]);
+    }
+    if (!out[0]) snprintf(out, n, "none");
+}
+
+/* ------------------------------------------------------------------ instance */
+enum { K_NONE, K_REAL, K_INTEGER, K_BOOLEAN, K_STRING };
+static const char *KIND_NAMES[] = {"unknown", "Real", "Integer", "Boolean", "String"};
+#define MAX_VR 1000000u /* a larger value reference table is refused at instantiation */
+#define STATE_MAGIC 0x46535441u
 
 typedef struct {
+    unsigned char kind;
+    unsigned char set_mask; /* states in which fmi2SetXXX may write it */
+    unsigned char fast_set; /* set_mask if it is in the fast-path buffer, else 0 */
+    int fast;               /* index into the fast-path buffer, or -1 */
+    char *name;
+    const char *why;        /* why it cannot be set (in messages) */
+} Var;
+
+typedef struct Comp Comp;
+
+typedef struct State {
+    uint32_t magic;
+    Comp *owner;
+    PyObject *py;  /* the slave's state object */
+    PyObject *ser; /* its serialization, made on demand */
+    unsigned st;
+    double time, start, stop;
+    int stop_defined;
+    struct State *next;
+} State;
+
+struct Comp {
     PyObject *cls;
     PyObject *slave;
     fmi2CallbackFunctions cb;
@@ -36,14 +162,71 @@ typedef struct {
     int logging;
     int visible;
     PyObject *strings; /* keeps the last fmi2GetString results alive */
-    /* fast path */
+    unsigned st;       /* state machine */
+    double time, start, stop;
+    int stop_defined;
+    Var *vars;
+    size_t nvars;
     Py_buffer buf;
     int has_buf;
-    fmi2ValueReference fast_vr[NFAST];
-    int nfast;
-} Comp;
+    State *states; /* live FMU states handed out by this instance */
+    Comp *next;
+};
 
-static void emit(const fmi2CallbackFunctions *cb, const char *name, fmi2Status st, const char *cat, const char *msg)
+/* registry of live instances: a pointer the host passes is used only if found here.
+ * The fast path must not pay for a lock: each thread remembers the last instance it
+ * found, valid while no instance has been freed since (g_gen counts frees). */
+static pthread_mutex_t g_lock = PTHREAD_MUTEX_INITIALIZER;
+static Comp *g_comps;
+static unsigned long g_gen = 1;
+static __thread struct {
+    const void *comp;
+    unsigned long gen;
+} tl; /* one thread-local block: one TLS lookup */
+
+static void registry_add(Comp *c)
+{
+    pthread_mutex_lock(&g_lock);
+    c->next = g_comps;
+    g_comps = c;
+    pthread_mutex_unlock(&g_lock);
+}
+
+static int registry_remove(Comp *c)
+{
+    int found = 0;
+    pthread_mutex_lock(&g_lock);
+    for (Comp **p = &g_comps; *p; p = &(*p)->next) {
+        if (*p == c) {
+            *p = c->next;
+            found = 1;
+            __atomic_add_fetch(&g_gen, 1, __ATOMIC_RELEASE); /* every thread's remembered instance */
+            break;
+        }
+    }
+    pthread_mutex_unlock(&g_lock);
+    return found;
+}
+
+static Comp *registry_find(const void *comp)
+{
+    if (comp && comp == tl.comp && __atomic_load_n(&g_gen, __ATOMIC_ACQUIRE) == tl.gen) return (Comp *)comp;
+    Comp *c;
+    pthread_mutex_lock(&g_lock);
+    unsigned long gen = g_gen;
+    for (c = g_comps; c && (const void *)c != comp; c = c->next) {
+    }
+    pthread_mutex_unlock(&g_lock);
+    if (c) {
+        tl.comp = c;
+        tl.gen = gen;
+    }
+    return c;
+}
+
+/* ------------------------------------------------------------------ logging */
+static void emit_cb(const fmi2CallbackFunctions *cb, const char *name, fmi2Status st, const char *cat,
+                    const char *msg)
 {
     /* the message is passed as the format string (hosts such as fmpy do not format):
      * double every '%' so hosts that do format print it unchanged */
@@ -60,37 +243,75 @@ static void emit(const fmi2CallbackFunctions *cb, const char *name, fmi2Status s
     free(esc);
 }
 
-static void drain_log(Comp *c)
+static const char *CATS[] = {"logAll", "logStatusWarning", "logStatusDiscard", "logStatusError", "logStatusFatal"};
+
+static fmi2Status logf_(Comp *c, fmi2Status st, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static fmi2Status logf_(Comp *c, fmi2Status st, const char *fmt, ...)
 {
+    char msg[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    emit_cb(&c->cb, c->name, st, CATS[st <= fmi2Fatal ? st : 0], msg);
+    return st;
+}
+
+/* Pass on the slave's log queue; returns the highest status in it (a slave that logs a
+ * warning makes the call return fmi2Warning). Works on a copy of the queue, so that
+ * whatever Python runs while reading the messages cannot pull items from under us. */
+static fmi2Status drain_log(Comp *c)
+{
+    if (!c->slave) return fmi2OK;
+    fmi2Status worst = fmi2OK;
     PyObject *q = PyObject_GetAttrString(c->slave, "log_queue");
     if (!q || !PyList_Check(q)) {
+        int present = q != NULL;
         Py_XDECREF(q);
         PyErr_Clear();
-        return;
+        if (present) logf_(c, fmi2Warning, "log queue: expected a list; messages lost");
+        return present ? fmi2Warning : fmi2OK;
     }
-    Py_ssize_t n = PyList_Size(q);
-    for (Py_ssize_t i = 0; i < n; i++) {
-        PyObject *m = PyList_GetItem(q, i);
-        PyObject *st = PyObject_GetAttrString(m, "status");
-        PyObject *cat = PyObject_GetAttrString(m, "category");
-        PyObject *msg = PyObject_GetAttrString(m, "msg");
-        PyObject *dbg = PyObject_GetAttrString(m, "debug");
-        PyErr_Clear();
-        long status = st ? PyLong_AsLong(st) : fmi2OK;
-        PyErr_Clear();
-        int debug = dbg ? PyObject_IsTrue(dbg) == 1 : 0;
-        const char *cs = (cat && PyUnicode_Check(cat)) ? PyUnicode_AsUTF8(cat) : "";
-        const char *ms = (msg && PyUnicode_Check(msg)) ? PyUnicode_AsUTF8(msg) : "";
-        PyErr_Clear();
-        if (c->logging || !debug) emit(&c->cb, c->name, (fmi2Status)status, cs ? cs : "", ms ? ms : "");
-        Py_XDECREF(st);
-        Py_XDECREF(cat);
-        Py_XDECREF(msg);
-        Py_XDECREF(dbg);
-    }
-    PyList_SetSlice(q, 0, n, NULL);
+    PyObject *items = PyList_GetSlice(q, 0, PyList_GET_SIZE(q));
+    if (items) PyList_SetSlice(q, 0, PyList_GET_SIZE(items), NULL);
     Py_DECREF(q);
     PyErr_Clear();
+    for (Py_ssize_t i = 0; items && i < PyList_GET_SIZE(items); i++) {
+        PyObject *m = PyList_GET_ITEM(items, i);
+        PyObject *st = PyObject_GetAttrString(m, "status");
+        PyErr_Clear();
+        long status = st ? PyLong_AsLong(st) : -1;
+        PyErr_Clear();
+        PyObject *dbg = PyObject_GetAttrString(m, "debug");
+        PyErr_Clear();
+        int debug = dbg ? PyObject_IsTrue(dbg) == 1 : 0;
+        PyErr_Clear();
+        PyObject *cat = PyObject_GetAttrString(m, "category");
+        PyObject *msg = PyObject_GetAttrString(m, "msg");
+        PyErr_Clear();
+        PyObject *smsg = msg ? PyObject_Str(msg) : NULL;
+        PyErr_Clear();
+        const char *cs = (cat && PyUnicode_Check(cat)) ? PyUnicode_AsUTF8(cat) : NULL;
+        PyErr_Clear();
+        const char *ms = smsg ? PyUnicode_AsUTF8(smsg) : NULL;
+        PyErr_Clear();
+        if (status < fmi2OK || status > fmi2Fatal) {
+            logf_(c, fmi2Warning, "log queue: message with status %ld (expected 0..4): %s", status,
+                  ms ? ms : "(unreadable message)");
+            status = fmi2Warning;
+        } else if (c->logging || !debug) {
+            emit_cb(&c->cb, c->name, (fmi2Status)status, cs ? cs : CATS[status], ms ? ms : "(unreadable message)");
+        }
+        if (status > (long)worst) worst = (fmi2Status)status;
+        Py_XDECREF(st);
+        Py_XDECREF(dbg);
+        Py_XDECREF(cat);
+        Py_XDECREF(msg);
+        Py_XDECREF(smsg);
+    }
+    Py_XDECREF(items);
+    PyErr_Clear();
+    return worst;
 }
 
 /* Pass on the slave's log, then the pending Python exception as fmi2Error
@@ -101,16 +322,16 @@ static fmi2Status fail(Comp *c, const char *where)
     PyErr_Fetch(&type, &value, &tb); /* drain_log must not see (and clear) it */
     drain_log(c);
     PyErr_NormalizeException(&type, &value, &tb);
-    const char *text = NULL;
     PyObject *s = value ? PyObject_Str(value) : NULL;
-    if (s) text = PyUnicode_AsUTF8(s);
-    if (!text) text = "unknown error";
+    const char *text = s ? PyUnicode_AsUTF8(s) : NULL;
     PyErr_Clear();
+    if ((!text || !text[0]) && type && PyType_Check(type)) text = ((PyTypeObject *)type)->tp_name;
+    if (!text || !text[0]) text = "unknown error";
     size_t n = strlen(where) + strlen(text) + 4;
     char *msg = (char *)malloc(n);
     if (msg) {
         snprintf(msg, n, "%s: %s", where, text);
-        emit(&c->cb, c->name, fmi2Error, "logStatusError", msg);
+        emit_cb(&c->cb, c->name, fmi2Error, "logStatusError", msg);
         free(msg);
     }
     Py_XDECREF(s);
@@ -120,49 +341,228 @@ static fmi2Status fail(Comp *c, const char *where)
     return fmi2Error;
 }
 
-/* The outcome of a call returning `res` (stolen), after the slave's log. */
+/* The outcome of a Python call returning `res` (stolen): fmi2Error if it raised, else
+ * fmi2OK or fmi2Warning after the slave's log. */
 static fmi2Status finish(Comp *c, const char *where, PyObject *res)
 {
     if (!res) return fail(c, where);
-    drain_log(c);
+    fmi2Status st = drain_log(c);
     Py_DECREF(res);
-    return fmi2OK;
+    return st > fmi2Warning ? fmi2Warning : st;
 }
 
-static void release_buffer(Comp *c)
+/* ------------------------------------------------------------------ entry checks */
+/* The instance behind `comp` if it is live and `fn` is allowed in its state; else NULL
+ * (and a log line when there is an instance to log through). */
+static Comp *enter(fmi2Component comp, enum Fn fn)
 {
-    if (c->has_buf) PyBuffer_Release(&c->buf);
-    c->has_buf = 0;
-    c->nfast = 0;
+    Comp *c = registry_find(comp);
+    if (!c) return NULL; /* not an instance of this library, or freed: nothing to log through */
+    if (!(c->st & TABLE[fn].allowed)) {
+        char allowed[160];
+        states_text(TABLE[fn].allowed, allowed, sizeof allowed);
+        logf_(c, fmi2Error, "%s: not allowed in state %s (allowed in: %s)", TABLE[fn].name, state_name(c->st),
+              allowed);
+        return NULL;
+    }
+    return c;
 }
 
-/* Pick up the slave's fast-path buffer, if it offers one. */
-static void attach_buffer(Comp *c)
+#define ENTER(fn)                              \
+    Comp *c = enter(comp, F_##fn);             \
+    if (!c) return fmi2Error;
+#define NEED(ptr, what)                                                                  \
+    if (!(ptr)) return logf_(c, fmi2Error, "%s: %s is NULL", TABLE[fn_].name, what);
+
+#define GIL_BEGIN PyGILState_STATE gil_ = PyGILState_Ensure();
+#define GIL_END PyGILState_Release(gil_);
+
+/* Every value reference known and of `kind`; with `set`, settable in the current state
+ * (and, for Reals, finite). Logs the first offending reference. */
+static int check_vrs(Comp *c, enum Fn fn, const fmi2ValueReference vr[], size_t n, int kind, int set,
+                     const fmi2Real *reals)
 {
-    release_buffer(c);
-    PyObject *vrs = PyObject_GetAttrString(c->slave, "_c_real_vrs");
-    PyObject *buf = PyObject_GetAttrString(c->slave, "_c_real_buf");
-    if (vrs && buf && PyTuple_Check(vrs) && PyTuple_Size(vrs) <= NFAST &&
-        PyObject_GetBuffer(buf, &c->buf, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) == 0) {
-        if (c->buf.len == (Py_ssize_t)(PyTuple_Size(vrs) * sizeof(double))) {
-            c->has_buf = 1;
-            c->nfast = (int)PyTuple_Size(vrs);
-            for (int i = 0; i < c->nfast; i++)
-                c->fast_vr[i] = (fmi2ValueReference)PyLong_AsUnsignedLong(PyTuple_GetItem(vrs, i));
+    for (size_t i = 0; i < n; i++) {
+        const Var *v = vr[i] < c->nvars ? &c->vars[vr[i]] : NULL;
+        if (!v || v->kind == K_NONE) {
+            logf_(c, fmi2Error, "%s: value reference %u (vr[%zu]) is not a variable of this FMU", TABLE[fn].name,
+                  vr[i], i);
+            return 0;
+        }
+        if (v->kind != kind) {
+            logf_(c, fmi2Error, "%s: value reference %u (%s) is a %s variable, not %s", TABLE[fn].name, vr[i],
+                  v->name, KIND_NAMES[v->kind], KIND_NAMES[kind]);
+            return 0;
+        }
+        if (set && !(v->set_mask & c->st)) {
+            char allowed[160];
+            states_text(v->set_mask, allowed, sizeof allowed);
+            logf_(c, fmi2Error, "%s: value reference %u (%s) cannot be set in state %s: %s (settable in: %s)",
+                  TABLE[fn].name, vr[i], v->name, state_name(c->st), v->why, allowed);
+            return 0;
+        }
+        if (reals && !isfinite(reals[i])) {
+            logf_(c, fmi2Error, "%s: value reference %u (%s) got %g, expected a finite number", TABLE[fn].name,
+                  vr[i], v->name, reals[i]);
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* ------------------------------------------------------------------ slave loading */
+static PyObject *enum_name(PyObject *var, const char *attr)
+{
+    PyObject *e = PyObject_GetAttrString(var, attr);
+    if (!e) return NULL;
+    if (e == Py_None) return e;
+    PyObject *n = PyObject_GetAttrString(e, "name");
+    Py_DECREF(e);
+    return n;
+}
+
+static int name_is(PyObject *s, const char *text)
+{
+    return s && PyUnicode_Check(s) && PyUnicode_CompareWithASCIIString(s, text) == 0;
+}
+
+/* When a variable may be set (FMI 2.0.x section 4.2.4, the table's conditions for
+ * fmi2SetXXX): instantiated: initial exact or approx, or an input (inputs carry a start
+ * value); initializationMode: initial exact, or an input; stepComplete: tunable
+ * parameters and inputs. Never: constants, outputs, calculated variables. */
+static void set_mask(Var *v, PyObject *caus, PyObject *varia, PyObject *init)
+{
+    int input = name_is(caus, "input"), param = name_is(caus, "parameter");
+    int exact = name_is(init, "exact") || (init == Py_None && param);
+    int approx = name_is(init, "approx");
+    v->set_mask = 0;
+    if (name_is(varia, "constant")) {
+        v->why = "it is a constant";
+    } else if (name_is(caus, "output")) {
+        v->why = "it is an output";
+    } else if (!input && !exact && !approx) {
+        v->why = "it is calculated";
+    } else {
+        if (exact || approx || input) v->set_mask |= ST_INSTANTIATED;
+        if (exact || input) v->set_mask |= ST_INIT;
+        if (input || (param && name_is(varia, "tunable"))) v->set_mask |= ST_STEP_COMPLETE;
+        v->why = input ? "inputs are set before or between steps" : "it is a fixed parameter";
+    }
+}
+
+static void free_vars(Var *vars, size_t n)
+{
+    for (size_t i = 0; vars && i < n; i++) free(vars[i].name);
+    free(vars);
+}
+
+/* The slave's variable table (slave.vars: value reference -> pythonfmu variable), read
+ * once, so that access checks need no Python. */
+static int read_vars(PyObject *slave, Var **out, size_t *nout)
+{
+    PyObject *mod = PyImport_ImportModule("pythonfmu.variables");
+    PyObject *vars = PyObject_GetAttrString(slave, "vars");
+    PyObject *items = vars ? PyMapping_Items(vars) : NULL;
+    PyObject *classes[5] = {NULL};
+    static const char *cls_names[5] = {NULL, "Real", "Integer", "Boolean", "String"};
+    Var *table = NULL;
+    size_t n = 0;
+    int ok = mod && items != NULL;
+    for (int k = 1; ok && k < 5; k++) ok = (classes[k] = PyObject_GetAttrString(mod, cls_names[k])) != NULL;
+    for (Py_ssize_t i = 0; ok && i < PyList_GET_SIZE(items); i++) {
+        PyObject *key = PyTuple_GetItem(PyList_GET_ITEM(items, i), 0);
+        unsigned long vr = key ? PyLong_AsUnsignedLong(key) : (unsigned long)-1;
+        if (PyErr_Occurred() || vr >= MAX_VR) {
+            PyErr_Clear();
+            PyErr_Format(PyExc_ValueError, "slave.vars: keys must be value references below %u", MAX_VR);
+            ok = 0;
+            break;
+        }
+        if (vr >= n) {
+            Var *t = (Var *)realloc(table, (vr + 1) * sizeof(Var));
+            if (!t) {
+                PyErr_NoMemory();
+                ok = 0;
+                break;
+            }
+            memset(t + n, 0, (vr + 1 - n) * sizeof(Var));
+            for (size_t k = n; k <= vr; k++) t[k].fast = -1; /* holes: never on the fast path */
+            table = t;
+            n = vr + 1;
+        }
+    }
+    for (Py_ssize_t i = 0; ok && i < PyList_GET_SIZE(items); i++) {
+        PyObject *pair = PyList_GET_ITEM(items, i);
+        unsigned long vr = PyLong_AsUnsignedLong(PyTuple_GET_ITEM(pair, 0));
+        PyObject *var = PyTuple_GET_ITEM(pair, 1);
+        Var *v = &table[vr];
+        for (int k = 1; k < 5 && !v->kind; k++)
+            if (PyObject_IsInstance(var, classes[k]) == 1) v->kind = (unsigned char)k;
+        PyObject *name = PyObject_GetAttrString(var, "name");
+        PyObject *caus = enum_name(var, "causality"), *varia = enum_name(var, "variability");
+        PyObject *init = enum_name(var, "initial");
+        const char *s = (name && PyUnicode_Check(name)) ? PyUnicode_AsUTF8(name) : NULL;
+        if (!v->kind || !s || !caus || !varia || !init) {
+            Py_XDECREF(name), Py_XDECREF(caus), Py_XDECREF(varia), Py_XDECREF(init);
+            PyErr_Clear();
+            PyErr_Format(PyExc_TypeError, "slave.vars[%lu]: not a pythonfmu Real/Integer/Boolean/String variable", vr);
+            ok = 0;
+            break;
+        }
+        v->name = strdup(s);
+        v->fast = -1;
+        set_mask(v, caus, varia, init);
+        Py_DECREF(name), Py_DECREF(caus), Py_DECREF(varia), Py_DECREF(init);
+        if (!v->name) {
+            PyErr_NoMemory();
+            ok = 0;
+        }
+    }
+    if (ok && !items) ok = 0;
+    for (int k = 1; k < 5; k++) Py_XDECREF(classes[k]);
+    Py_XDECREF(mod);
+    Py_XDECREF(vars);
+    Py_XDECREF(items);
+    if (!ok) {
+        free_vars(table, n);
+        if (!PyErr_Occurred()) PyErr_SetString(PyExc_TypeError, "slave.vars: unreadable");
+        return 0;
+    }
+    *out = table;
+    *nout = n;
+    return 1;
+}
+
+/* The slave's fast-path buffer, if it offers a valid one: every listed reference a
+ * Real of the table, the buffer float64, C-contiguous, writable, of matching length. */
+static void attach_buffer(PyObject *slave, Var *vars, size_t nvars, Py_buffer *buf, int *has_buf)
+{
+    *has_buf = 0;
+    PyObject *vrs = PyObject_GetAttrString(slave, "_c_real_vrs");
+    PyObject *obj = PyObject_GetAttrString(slave, "_c_real_buf");
+    PyErr_Clear();
+    if (vrs && obj && PyTuple_Check(vrs) &&
+        PyObject_GetBuffer(obj, buf, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) == 0) {
+        Py_ssize_t n = PyTuple_GET_SIZE(vrs);
+        int ok = buf->itemsize == 8 && buf->format && strcmp(buf->format, "d") == 0 && buf->len == n * 8;
+        for (Py_ssize_t i = 0; ok && i < n; i++) {
+            unsigned long vr = PyLong_AsUnsignedLong(PyTuple_GET_ITEM(vrs, i));
+            ok = !PyErr_Occurred() && vr < nvars && vars[vr].kind == K_REAL && vars[vr].fast < 0;
+            if (ok) {
+                vars[vr].fast = (int)i;
+                vars[vr].fast_set = vars[vr].set_mask;
+            }
+        }
+        if (ok) {
+            *has_buf = 1;
         } else {
-            PyBuffer_Release(&c->buf);
+            for (size_t i = 0; i < nvars; i++) vars[i].fast = -1, vars[i].fast_set = 0;
+            PyBuffer_Release(buf);
         }
     }
     Py_XDECREF(vrs);
-    Py_XDECREF(buf);
+    Py_XDECREF(obj);
     PyErr_Clear();
-}
-
-static int fast_index(const Comp *c, fmi2ValueReference vr)
-{
-    for (int i = 0; i < c->nfast; i++)
-        if (c->fast_vr[i] == vr) return i;
-    return -1;
 }
 
 static PyObject *new_slave(Comp *c)
@@ -176,10 +576,34 @@ static PyObject *new_slave(Comp *c)
     return slave;
 }
 
+/* Make `slave` (stolen) the instance's slave with its variable table and buffer; on
+ * failure (Python error set) the instance keeps what it had. */
+static int install_slave(Comp *c, PyObject *slave)
+{
+    Var *vars;
+    size_t n;
+    if (!read_vars(slave, &vars, &n)) {
+        Py_DECREF(slave);
+        return 0;
+    }
+    Py_buffer buf;
+    int has_buf;
+    attach_buffer(slave, vars, n, &buf, &has_buf);
+    if (c->has_buf) PyBuffer_Release(&c->buf);
+    free_vars(c->vars, c->nvars);
+    Py_XDECREF(c->slave);
+    c->slave = slave;
+    c->vars = vars;
+    c->nvars = n;
+    c->buf = buf;
+    c->has_buf = has_buf;
+    return 1;
+}
+
 static char *read_line(const char *dir, const char *file)
 {
     char path[4096];
-    snprintf(path, sizeof path, "%s/%s", dir, file);
+    if (snprintf(path, sizeof path, "%s/%s", dir, file) >= (int)sizeof path) return NULL;
     FILE *f = fopen(path, "r");
     if (!f) return NULL;
     char line[512] = {0};
@@ -189,7 +613,16 @@ static char *read_line(const char *dir, const char *file)
     return strdup(line);
 }
 
-/* file URI -> path: strip the scheme and host part, decode %XX */
+static int hexval(char ch)
+{
+    if (ch >= '0' && ch <= '9') return ch - '0';
+    if (ch >= 'a' && ch <= 'f') return ch - 'a' + 10;
+    if (ch >= 'A' && ch <= 'F') return ch - 'A' + 10;
+    return -1;
+}
+
+/* file URI -> path: strip the scheme and host part, decode %XX (a malformed escape, or
+ * one that would put a NUL in the path, stays literal) */
 static char *uri_to_path(const char *uri)
 {
     const char *p = uri;
@@ -200,11 +633,13 @@ static char *uri_to_path(const char *uri)
         p += 5;
     }
     char *out = (char *)malloc(strlen(p) + 1);
+    if (!out) return NULL;
     size_t k = 0;
     for (size_t i = 0; p[i]; i++) {
-        if (p[i] == '%' && p[i + 1] && p[i + 2]) {
-            char hex[3] = {p[i + 1], p[i + 2], 0};
-            out[k++] = (char)strtol(hex, NULL, 16);
+        int hi = p[i] == '%' && p[i + 1] ? hexval(p[i + 1]) : -1;
+        int lo = hi >= 0 && p[i + 2] ? hexval(p[i + 2]) : -1;
+        if (lo >= 0 && (hi || lo)) {
+            out[k++] = (char)(hi * 16 + lo);
             i += 2;
         } else {
             out[k++] = p[i];
@@ -228,9 +663,27 @@ static void ensure_python(void)
     PyEval_SaveThread();
 }
 
-#define GIL_BEGIN PyGILState_STATE gil_ = PyGILState_Ensure();
-#define GIL_END PyGILState_Release(gil_);
-#define COMP Comp *c = (Comp *)comp; if (!c) return fmi2Error;
+/* ------------------------------------------------------------------ FMU states */
+static State *find_state(Comp *c, const void *s)
+{
+    for (State *p = c->states; p; p = p->next)
+        if ((const void *)p == s) return p;
+    return NULL;
+}
+
+static void drop_state(Comp *c, State *s)
+{
+    for (State **p = &c->states; *p; p = &(*p)->next) {
+        if (*p == s) {
+            *p = s->next;
+            break;
+        }
+    }
+    Py_XDECREF(s->py);
+    Py_XDECREF(s->ser);
+    s->magic = 0;
+    free(s);
+}
 
 /* ------------------------------------------------------------------ common functions */
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -238,11 +691,20 @@ const char *fmi2GetVersion(void) { return fmi2Version; }
 
 fmi2Status fmi2SetDebugLogging(fmi2Component comp, fmi2Boolean on, size_t n, const fmi2String cats[])
 {
-    COMP
-    (void)n;
-    (void)cats;
+    ENTER(SetDebugLogging)
+    enum Fn fn_ = F_SetDebugLogging;
+    if (n > 0) NEED(cats, "categories[]")
+    for (size_t i = 0; i < n; i++)
+        if (!cats[i]) return logf_(c, fmi2Error, "fmi2SetDebugLogging: categories[%zu] is NULL", i);
     c->logging = on ? 1 : 0;
     return fmi2OK;
+}
+
+static void free_comp(Comp *c)
+{
+    free(c->name);
+    free(c->resources);
+    free(c);
 }
 
 fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, fmi2String resourceLocation,
@@ -250,130 +712,159 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
 {
     (void)guid;
     if (type != fmi2CoSimulation) {
-        emit(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: this FMU supports co-simulation only");
+        emit_cb(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: this FMU supports co-simulation only");
         return NULL;
     }
     if (!resourceLocation) {
-        emit(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: no fmuResourceLocation given");
+        emit_cb(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: no fmuResourceLocation given");
         return NULL;
     }
     Comp *c = (Comp *)calloc(1, sizeof(Comp));
     if (!c) return NULL;
-    c->cb = *cb;
+    if (cb) c->cb = *cb; /* without callbacks the instance runs, silently */
     c->name = strdup(name ? name : "");
     c->resources = uri_to_path(resourceLocation);
     c->logging = loggingOn ? 1 : 0;
     c->visible = visible ? 1 : 0;
+    if (!c->name || !c->resources) {
+        emit_cb(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: out of memory");
+        free_comp(c);
+        return NULL;
+    }
     char *module = read_line(c->resources, "slavemodule.txt");
     char *clsname = read_line(c->resources, "slaveclass.txt");
     if (!module || !clsname || !module[0] || !clsname[0]) {
-        emit(cb, name, fmi2Error, "logStatusError",
-             "fmi2Instantiate: resources/slavemodule.txt or slaveclass.txt missing (fmuResourceLocation wrong?)");
+        logf_(c, fmi2Error, "fmi2Instantiate: %s/slavemodule.txt or slaveclass.txt missing or empty "
+                            "(fmuResourceLocation wrong?)", c->resources);
         free(module);
         free(clsname);
-        free(c->name);
-        free(c->resources);
-        free(c);
+        free_comp(c);
         return NULL;
     }
     ensure_python();
     GIL_BEGIN
     PyObject *sys_path = PySys_GetObject("path"); /* borrowed */
     PyObject *dir = PyUnicode_FromString(c->resources);
-    if (sys_path && dir && !PySequence_Contains(sys_path, dir)) PyList_Insert(sys_path, 0, dir);
+    if (sys_path && PyList_Check(sys_path) && dir && PySequence_Contains(sys_path, dir) == 0)
+        PyList_Insert(sys_path, 0, dir);
     Py_XDECREF(dir);
+    PyErr_Clear();
     PyObject *mod = PyImport_ImportModule(module);
     if (mod) {
         c->cls = PyObject_GetAttrString(mod, clsname);
         Py_DECREF(mod);
     }
-    if (c->cls) c->slave = new_slave(c);
-    if (!c->slave) {
-        fail(c, "fmi2Instantiate");
+    PyObject *slave = c->cls ? new_slave(c) : NULL;
+    int ok = slave && install_slave(c, slave);
+    if (!ok) {
+        fail(c, "fmi2Instantiate"); /* c->slave is NULL: drain_log skips the queue */
         Py_XDECREF(c->cls);
-        GIL_END
-        free(module);
-        free(clsname);
-        free(c->name);
-        free(c->resources);
-        free(c);
-        return NULL;
+    } else {
+        drain_log(c);
     }
-    drain_log(c);
-    attach_buffer(c);
     GIL_END
     free(module);
     free(clsname);
+    if (!ok) {
+        free_comp(c);
+        return NULL;
+    }
+    c->st = ST_INSTANTIATED;
+    registry_add(c);
     return (fmi2Component)c;
 }
 
 void fmi2FreeInstance(fmi2Component comp)
 {
     Comp *c = (Comp *)comp;
-    if (!c) return;
+    if (!c || !registry_remove(c)) return; /* unknown or already freed: nothing to do */
     GIL_BEGIN
-    release_buffer(c);
+    while (c->states) drop_state(c, c->states);
+    if (c->has_buf) PyBuffer_Release(&c->buf);
     Py_XDECREF(c->slave);
     Py_XDECREF(c->cls);
     Py_XDECREF(c->strings);
     GIL_END
-    free(c->name);
-    free(c->resources);
-    free(c);
+    free_vars(c->vars, c->nvars);
+    free_comp(c);
 }
 
 fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean tolDefined, fmi2Real tol, fmi2Real start,
                                fmi2Boolean stopDefined, fmi2Real stop)
 {
-    COMP
+    ENTER(SetupExperiment)
+    if (tolDefined && !(isfinite(tol) && tol > 0))
+        return logf_(c, fmi2Error, "fmi2SetupExperiment: tolerance = %g, expected a finite number > 0", tol);
+    if (!isfinite(start)) return logf_(c, fmi2Error, "fmi2SetupExperiment: startTime = %g, expected a finite time", start);
+    if (stopDefined && !(isfinite(stop) && stop >= start))
+        return logf_(c, fmi2Error, "fmi2SetupExperiment: stopTime = %g, expected a finite time >= startTime = %g",
+                     stop, start);
     GIL_BEGIN
     PyObject *ptol = tolDefined ? PyFloat_FromDouble(tol) : (Py_INCREF(Py_None), Py_None);
     PyObject *pstop = stopDefined ? PyFloat_FromDouble(stop) : (Py_INCREF(Py_None), Py_None);
-    PyObject *r = PyObject_CallMethod(c->slave, "setup_experiment", "dOO", start, pstop, ptol);
+    PyObject *r = (ptol && pstop) ? PyObject_CallMethod(c->slave, "setup_experiment", "dOO", start, pstop, ptol) : NULL;
     Py_XDECREF(ptol);
     Py_XDECREF(pstop);
     fmi2Status st = finish(c, "fmi2SetupExperiment", r);
     GIL_END
+    if (st <= fmi2Warning) {
+        c->start = c->time = start;
+        c->stop = stop;
+        c->stop_defined = stopDefined ? 1 : 0;
+    }
     return st;
 }
 
-static fmi2Status call0(fmi2Component comp, const char *method, const char *where)
+/* A mode change: the slave's method, then the new state. If the slave raises, the
+ * state becomes `on_raise` (0: unchanged; the slave's method must then leave its
+ * object as it was, as the actuator's do). */
+static fmi2Status transition(fmi2Component comp, enum Fn fn, const char *method, unsigned next, unsigned on_raise)
 {
-    COMP
+    Comp *c = enter(comp, fn);
+    if (!c) return fmi2Error;
     GIL_BEGIN
-    fmi2Status st = finish(c, where, PyObject_CallMethod(c->slave, method, NULL));
+    fmi2Status st = finish(c, TABLE[fn].name, PyObject_CallMethod(c->slave, method, NULL));
     GIL_END
+    if (st <= fmi2Warning) c->st = next;
+    else if (on_raise) c->st = on_raise;
     return st;
 }
 
-fmi2Status fmi2EnterInitializationMode(fmi2Component c)
+fmi2Status fmi2EnterInitializationMode(fmi2Component comp)
 {
-    return call0(c, "enter_initialization_mode", "fmi2EnterInitializationMode");
+    return transition(comp, F_EnterInitializationMode, "enter_initialization_mode", ST_INIT, 0);
 }
 
-fmi2Status fmi2ExitInitializationMode(fmi2Component c)
+fmi2Status fmi2ExitInitializationMode(fmi2Component comp)
 {
-    return call0(c, "exit_initialization_mode", "fmi2ExitInitializationMode");
+    return transition(comp, F_ExitInitializationMode, "exit_initialization_mode", ST_STEP_COMPLETE, 0);
 }
 
-fmi2Status fmi2Terminate(fmi2Component c) { return call0(c, "terminate", "fmi2Terminate"); }
+fmi2Status fmi2Terminate(fmi2Component comp)
+{
+    return transition(comp, F_Terminate, "terminate", ST_TERMINATED, ST_ERROR);
+}
 
 fmi2Status fmi2Reset(fmi2Component comp)
 {
-    COMP
+    ENTER(Reset)
     GIL_BEGIN
     fmi2Status st = fmi2OK;
     PyObject *fresh = new_slave(c);
-    if (!fresh) {
+    PyObject *old = c->slave;
+    Py_XINCREF(old);
+    if (!fresh || !install_slave(c, fresh)) {
         st = fail(c, "fmi2Reset");
     } else {
-        release_buffer(c);
-        Py_DECREF(c->slave);
-        c->slave = fresh;
-        drain_log(c);
-        attach_buffer(c);
+        st = drain_log(c);
+        Py_CLEAR(c->strings);
     }
+    Py_XDECREF(old);
     GIL_END
+    if (st > fmi2Warning) return st;
+    c->st = ST_INSTANTIATED;
+    c->time = c->start = c->stop = 0.0;
+    c->stop_defined = 0;
     return st;
 }
 
@@ -381,367 +872,651 @@ fmi2Status fmi2Reset(fmi2Component comp)
 static PyObject *vr_list(const fmi2ValueReference vr[], size_t n)
 {
     PyObject *l = PyList_New((Py_ssize_t)n);
-    for (size_t i = 0; l && i < n; i++) PyList_SET_ITEM(l, i, PyLong_FromUnsignedLong(vr[i]));
+    for (size_t i = 0; l && i < n; i++) {
+        PyObject *x = PyLong_FromUnsignedLong(vr[i]);
+        if (!x) {
+            Py_CLEAR(l);
+            break;
+        }
+        PyList_SET_ITEM(l, i, x);
+    }
     return l;
 }
 
-/* get_<kind>(vrs) -> list; convert each item with `conv` into out[i] */
-static PyObject *get_list(Comp *c, const char *method, const fmi2ValueReference vr[], size_t n)
+static const char *GETTERS[] = {NULL, "get_real", "get_integer", "get_boolean", "get_string"};
+static const char *SETTERS[] = {NULL, "set_real", "set_integer", "set_boolean", "set_string"};
+
+/* get_<kind>(vrs) as a list or tuple of exactly n items (new reference), else NULL
+ * with a Python error set */
+static PyObject *py_get(Comp *c, int kind, const fmi2ValueReference vr[], size_t n)
 {
     PyObject *vrs = vr_list(vr, n);
-    PyObject *r = vrs ? PyObject_CallMethod(c->slave, method, "O", vrs) : NULL;
+    PyObject *r = vrs ? PyObject_CallMethod(c->slave, GETTERS[kind], "O", vrs) : NULL;
     Py_XDECREF(vrs);
-    if (r && (!PySequence_Check(r) || PySequence_Size(r) != (Py_ssize_t)n)) {
-        Py_DECREF(r);
-        PyErr_SetString(PyExc_TypeError, "the slave returned the wrong number of values");
+    if (!r) return NULL;
+    PyObject *seq = PySequence_Fast(r, "");
+    Py_DECREF(r);
+    if (!seq || PySequence_Fast_GET_SIZE(seq) != (Py_ssize_t)n) {
+        Py_XDECREF(seq);
+        PyErr_Clear();
+        PyErr_Format(PyExc_TypeError, "slave.%s returned %s, expected a list of %zu values", GETTERS[kind],
+                     seq ? "a list of another length" : "no list", n);
         return NULL;
     }
-    return r;
+    return seq;
+}
+
+/* Convert item i of a getter's result into out (a C array of the kind's type). */
+static int convert(int kind, PyObject *it, void *out, size_t i, PyObject *keep)
+{
+    switch (kind) {
+    case K_REAL: {
+        if (!PyFloat_Check(it) && !PyLong_Check(it) && !PyNumber_Check(it)) break;
+        double x = PyFloat_AsDouble(it);
+        if (x == -1.0 && PyErr_Occurred()) return 0;
+        ((fmi2Real *)out)[i] = x;
+        return 1;
+    }
+    case K_INTEGER: {
+        if (PyBool_Check(it) || PyFloat_Check(it)) break;
+        long x = PyLong_AsLong(it);
+        if (x == -1 && PyErr_Occurred()) return 0;
+        if (x < INT32_MIN || x > INT32_MAX) {
+            PyErr_Format(PyExc_OverflowError, "value %ld does not fit a 32-bit fmi2Integer", x);
+            return 0;
+        }
+        ((fmi2Integer *)out)[i] = (fmi2Integer)x;
+        return 1;
+    }
+    case K_BOOLEAN:
+        if (!PyBool_Check(it)) break;
+        ((fmi2Boolean *)out)[i] = it == Py_True ? fmi2True : fmi2False;
+        return 1;
+    case K_STRING: {
+        if (!PyUnicode_Check(it)) break;
+        PyObject *b = PyUnicode_AsUTF8String(it);
+        if (!b) return 0;
+        PyList_SET_ITEM(keep, i, b);
+        ((fmi2String *)out)[i] = PyBytes_AS_STRING(b);
+        return 1;
+    }
+    }
+    PyErr_Format(PyExc_TypeError, "value %zu is a %s, expected a %s", i, Py_TYPE(it)->tp_name, KIND_NAMES[kind]);
+    return 0;
+}
+
+static fmi2Status get_values(fmi2Component comp, enum Fn fn, int kind, const fmi2ValueReference vr[], size_t n,
+                             void *value)
+{
+    Comp *c = enter(comp, fn);
+    if (!c) return fmi2Error;
+    enum Fn fn_ = fn;
+    if (n == 0) return fmi2OK;
+    NEED(vr, "vr[]")
+    NEED(value, "value[]")
+    if (kind == K_REAL && c->has_buf) { /* fast path: every reference a buffered Real */
+        const double *b = (const double *)c->buf.buf;
+        size_t i = 0;
+        for (; i < n && vr[i] < c->nvars && c->vars[vr[i]].fast >= 0; i++)
+            ((fmi2Real *)value)[i] = b[c->vars[vr[i]].fast];
+        if (i == n) return fmi2OK;
+    }
+    if (!check_vrs(c, fn, vr, n, kind, 0, NULL)) return fmi2Error;
+    GIL_BEGIN
+    PyObject *r = py_get(c, kind, vr, n);
+    PyObject *keep = (r && kind == K_STRING) ? PyList_New((Py_ssize_t)n) : NULL;
+    int ok = r && (kind != K_STRING || keep);
+    for (size_t i = 0; ok && i < n; i++) ok = convert(kind, PySequence_Fast_GET_ITEM(r, i), value, i, keep);
+    if (ok && keep) {
+        Py_XDECREF(c->strings);
+        c->strings = keep; /* valid until the next call, as FMI 2.0 asks */
+        keep = NULL;
+    }
+    Py_XDECREF(keep);
+    if (!ok) Py_CLEAR(r);
+    fmi2Status st = finish(c, TABLE[fn].name, r);
+    GIL_END
+    return st;
 }
 
 fmi2Status fmi2GetReal(fmi2Component comp, const fmi2ValueReference vr[], size_t n, fmi2Real value[])
 {
-    COMP
-    if (c->has_buf) {
-        const double *b = (const double *)c->buf.buf;
-        size_t i = 0;
-        for (; i < n; i++) {
-            int k = fast_index(c, vr[i]);
-            if (k < 0) break;
-            value[i] = b[k];
-        }
-        if (i == n) return fmi2OK;
-    }
-    GIL_BEGIN
-    PyObject *r = get_list(c, "get_real", vr, n);
-    for (size_t i = 0; r && i < n; i++) {
-        PyObject *it = PySequence_GetItem(r, (Py_ssize_t)i);
-        value[i] = it ? PyFloat_AsDouble(it) : 0.0;
-        Py_XDECREF(it);
-    }
-    if (r && PyErr_Occurred()) {
-        Py_DECREF(r);
-        r = NULL;
-    }
-    fmi2Status st = finish(c, "fmi2GetReal", r);
-    GIL_END
-    return st;
+    return get_values(comp, F_GetReal, K_REAL, vr, n, value);
 }
 
 fmi2Status fmi2GetInteger(fmi2Component comp, const fmi2ValueReference vr[], size_t n, fmi2Integer value[])
 {
-    COMP
-    GIL_BEGIN
-    PyObject *r = get_list(c, "get_integer", vr, n);
-    for (size_t i = 0; r && i < n; i++) {
-        PyObject *it = PySequence_GetItem(r, (Py_ssize_t)i);
-        value[i] = it ? (fmi2Integer)PyLong_AsLong(it) : 0;
-        Py_XDECREF(it);
-    }
-    if (r && PyErr_Occurred()) {
-        Py_DECREF(r);
-        r = NULL;
-    }
-    fmi2Status st = finish(c, "fmi2GetInteger", r);
-    GIL_END
-    return st;
+    return get_values(comp, F_GetInteger, K_INTEGER, vr, n, value);
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component comp, const fmi2ValueReference vr[], size_t n, fmi2Boolean value[])
 {
-    COMP
-    GIL_BEGIN
-    PyObject *r = get_list(c, "get_boolean", vr, n);
-    for (size_t i = 0; r && i < n; i++) {
-        PyObject *it = PySequence_GetItem(r, (Py_ssize_t)i);
-        value[i] = (it && PyObject_IsTrue(it) == 1) ? fmi2True : fmi2False;
-        Py_XDECREF(it);
-    }
-    fmi2Status st = finish(c, "fmi2GetBoolean", r);
-    GIL_END
-    return st;
+    return get_values(comp, F_GetBoolean, K_BOOLEAN, vr, n, value);
 }
 
 fmi2Status fmi2GetString(fmi2Component comp, const fmi2ValueReference vr[], size_t n, fmi2String value[])
 {
-    COMP
-    GIL_BEGIN
-    PyObject *r = get_list(c, "get_string", vr, n);
-    PyObject *keep = r ? PyList_New((Py_ssize_t)n) : NULL;
-    for (size_t i = 0; keep && i < n; i++) {
-        PyObject *it = PySequence_GetItem(r, (Py_ssize_t)i);
-        PyObject *b = it ? PyUnicode_AsUTF8String(it) : NULL;
-        Py_XDECREF(it);
-        if (!b) {
-            Py_CLEAR(keep);
-            break;
-        }
-        value[i] = PyBytes_AsString(b);
-        PyList_SET_ITEM(keep, i, b);
-    }
-    if (r && !keep) {
-        Py_DECREF(r);
-        r = NULL;
-    }
-    if (keep) {
-        Py_XDECREF(c->strings);
-        c->strings = keep; /* valid until the next call, as FMI 2.0 asks */
-    }
-    fmi2Status st = finish(c, "fmi2GetString", r);
-    GIL_END
-    return st;
+    return get_values(comp, F_GetString, K_STRING, vr, n, value);
 }
 
-static fmi2Status set_list(Comp *c, const char *method, const char *where, const fmi2ValueReference vr[], size_t n,
-                           PyObject *values)
+static PyObject *py_values(int kind, const void *value, size_t n)
 {
+    PyObject *l = PyList_New((Py_ssize_t)n);
+    for (size_t i = 0; l && i < n; i++) {
+        PyObject *x = NULL;
+        switch (kind) {
+        case K_REAL: x = PyFloat_FromDouble(((const fmi2Real *)value)[i]); break;
+        case K_INTEGER: x = PyLong_FromLong(((const fmi2Integer *)value)[i]); break;
+        case K_BOOLEAN: x = PyBool_FromLong(((const fmi2Boolean *)value)[i] != fmi2False); break;
+        case K_STRING: {
+            const char *s = ((const fmi2String *)value)[i];
+            x = PyUnicode_DecodeUTF8(s, (Py_ssize_t)strlen(s), "strict");
+            break;
+        }
+        }
+        if (!x) {
+            Py_CLEAR(l);
+            break;
+        }
+        PyList_SET_ITEM(l, i, x);
+    }
+    return l;
+}
+
+/* set_<kind>(vrs, values) through Python, all or nothing: pythonfmu sets one variable
+ * after the other, so when one is refused, the ones before it are set back to the
+ * values read before the call. If that fails too, the slave is in an unknown state:
+ * the instance goes to the error state. */
+static fmi2Status py_set(Comp *c, enum Fn fn, int kind, const fmi2ValueReference vr[], size_t n, const void *value)
+{
+    const char *where = TABLE[fn].name;
     PyObject *vrs = vr_list(vr, n);
-    PyObject *r = (vrs && values) ? PyObject_CallMethod(c->slave, method, "OO", vrs, values) : NULL;
-    Py_XDECREF(vrs);
-    Py_XDECREF(values);
+    PyObject *vals = vrs ? py_values(kind, value, n) : NULL;
+    if (!vals) {
+        Py_XDECREF(vrs);
+        return fail(c, where);
+    }
+    PyObject *old = py_get(c, kind, vr, n);
+    if (!old) {
+        Py_DECREF(vrs);
+        Py_DECREF(vals);
+        return fail(c, where); /* nothing was set */
+    }
+    PyObject *r = PyObject_CallMethod(c->slave, SETTERS[kind], "OO", vrs, vals);
+    if (!r) {
+        PyObject *type, *val, *tb;
+        PyErr_Fetch(&type, &val, &tb);
+        PyObject *now = py_get(c, kind, vr, n);
+        int same = now && PyObject_RichCompareBool(now, old, Py_EQ) == 1;
+        PyObject *undo = same ? (Py_INCREF(Py_None), Py_None)
+                              : PyObject_CallMethod(c->slave, SETTERS[kind], "OO", vrs, old);
+        Py_XDECREF(now);
+        PyErr_Clear();
+        if (!undo) {
+            c->st = ST_ERROR;
+            logf_(c, fmi2Error, "%s: the values set before the refused one could not be set back; the instance is "
+                                "now in the error state (restore a saved state or reset)", where);
+        }
+        Py_XDECREF(undo);
+        PyErr_Restore(type, val, tb);
+    }
+    Py_DECREF(vrs);
+    Py_DECREF(vals);
+    Py_DECREF(old);
     return finish(c, where, r);
+}
+
+static fmi2Status set_values(fmi2Component comp, enum Fn fn, int kind, const fmi2ValueReference vr[], size_t n,
+                             const void *value)
+{
+    Comp *c = enter(comp, fn);
+    if (!c) return fmi2Error;
+    enum Fn fn_ = fn;
+    if (n == 0) return fmi2OK;
+    NEED(vr, "vr[]")
+    NEED(value, "value[]")
+    if (kind == K_REAL && c->has_buf) { /* fast path: buffered Reals, settable now, finite */
+        const fmi2Real *x = (const fmi2Real *)value;
+        size_t i = 0;
+        for (; i < n && vr[i] < c->nvars && (c->vars[vr[i]].fast_set & c->st) && isfinite(x[i]); i++) {
+        }
+        if (i == n) {
+            double *b = (double *)c->buf.buf;
+            for (i = 0; i < n; i++) b[c->vars[vr[i]].fast] = x[i];
+            return fmi2OK;
+        }
+    }
+    if (!check_vrs(c, fn, vr, n, kind, 1, kind == K_REAL ? (const fmi2Real *)value : NULL)) return fmi2Error;
+    if (kind == K_STRING) {
+        for (size_t i = 0; i < n; i++)
+            if (!((const fmi2String *)value)[i])
+                return logf_(c, fmi2Error, "fmi2SetString: value[%zu] (value reference %u) is NULL", i, vr[i]);
+    }
+    GIL_BEGIN
+    fmi2Status st = py_set(c, fn, kind, vr, n, value);
+    GIL_END
+    return st;
 }
 
 fmi2Status fmi2SetReal(fmi2Component comp, const fmi2ValueReference vr[], size_t n, const fmi2Real value[])
 {
-    COMP
-    if (c->has_buf) {
-        size_t i = 0;
-        int idx[NFAST];
-        for (; i < n && i < NFAST; i++) {
-            idx[i] = fast_index(c, vr[i]);
-            if (idx[i] < 0) break;
-        }
-        if (i == n) {
-            for (i = 0; i < n; i++) {
-                if (!isfinite(value[i])) {
-                    char msg[128];
-                    snprintf(msg, sizeof msg, "fmi2SetReal: value reference %u got %g, expected a finite number",
-                             vr[i], value[i]);
-                    emit(&c->cb, c->name, fmi2Error, "logStatusError", msg);
-                    return fmi2Error;
-                }
-            }
-            double *b = (double *)c->buf.buf;
-            for (i = 0; i < n; i++) b[idx[i]] = value[i];
-            return fmi2OK;
-        }
-    }
-    GIL_BEGIN
-    PyObject *vals = PyList_New((Py_ssize_t)n);
-    for (size_t i = 0; vals && i < n; i++) PyList_SET_ITEM(vals, i, PyFloat_FromDouble(value[i]));
-    fmi2Status st = set_list(c, "set_real", "fmi2SetReal", vr, n, vals);
-    GIL_END
-    return st;
+    return set_values(comp, F_SetReal, K_REAL, vr, n, value);
 }
 
 fmi2Status fmi2SetInteger(fmi2Component comp, const fmi2ValueReference vr[], size_t n, const fmi2Integer value[])
 {
-    COMP
-    GIL_BEGIN
-    PyObject *vals = PyList_New((Py_ssize_t)n);
-    for (size_t i = 0; vals && i < n; i++) PyList_SET_ITEM(vals, i, PyLong_FromLong(value[i]));
-    fmi2Status st = set_list(c, "set_integer", "fmi2SetInteger", vr, n, vals);
-    GIL_END
-    return st;
+    return set_values(comp, F_SetInteger, K_INTEGER, vr, n, value);
 }
 
 fmi2Status fmi2SetBoolean(fmi2Component comp, const fmi2ValueReference vr[], size_t n, const fmi2Boolean value[])
 {
-    COMP
-    GIL_BEGIN
-    PyObject *vals = PyList_New((Py_ssize_t)n);
-    for (size_t i = 0; vals && i < n; i++) PyList_SET_ITEM(vals, i, PyBool_FromLong(value[i]));
-    fmi2Status st = set_list(c, "set_boolean", "fmi2SetBoolean", vr, n, vals);
-    GIL_END
-    return st;
+    return set_values(comp, F_SetBoolean, K_BOOLEAN, vr, n, value);
 }
 
 fmi2Status fmi2SetString(fmi2Component comp, const fmi2ValueReference vr[], size_t n, const fmi2String value[])
 {
-    COMP
-    GIL_BEGIN
-    PyObject *vals = PyList_New((Py_ssize_t)n);
-    for (size_t i = 0; vals && i < n; i++)
-        PyList_SET_ITEM(vals, i, PyUnicode_DecodeUTF8(value[i] ? value[i] : "", strlen(value[i] ? value[i] : ""),
-                                                      "replace"));
-    fmi2Status st = set_list(c, "set_string", "fmi2SetString", vr, n, vals);
-    GIL_END
-    return st;
+    return set_values(comp, F_SetString, K_STRING, vr, n, value);
 }
 
 /* ------------------------------------------------------------------ FMU state */
+/* *state on entry: NULL (a new state) or a state of this instance (overwritten, as
+ * FMI 2.0 section 2.1.8 allows); anything else is refused without being read. */
+static State *state_slot(Comp *c, enum Fn fn, fmi2FMUstate *state, int *fresh)
+{
+    *fresh = 0;
+    if (!state) {
+        logf_(c, fmi2Error, "%s: FMUstate is NULL", TABLE[fn].name);
+        return NULL;
+    }
+    if (*state) {
+        State *s = find_state(c, *state);
+        if (!s) logf_(c, fmi2Error, "%s: *FMUstate = %p is not a live FMU state of this instance (expected NULL or "
+                                    "a state it returned)", TABLE[fn].name, *state);
+        return s;
+    }
+    State *s = (State *)calloc(1, sizeof(State));
+    if (!s) logf_(c, fmi2Error, "%s: out of memory", TABLE[fn].name);
+    *fresh = s != NULL;
+    return s;
+}
+
+static void fill_state(Comp *c, State *s, int fresh, PyObject *py, unsigned st, double time, double start,
+                       double stop, int stop_defined, fmi2FMUstate *out)
+{
+    Py_XDECREF(s->py);
+    Py_CLEAR(s->ser);
+    s->py = py;
+    s->st = st;
+    s->time = time;
+    s->start = start;
+    s->stop = stop;
+    s->stop_defined = stop_defined;
+    if (fresh) {
+        s->magic = STATE_MAGIC;
+        s->owner = c;
+        s->next = c->states;
+        c->states = s;
+    }
+    *out = (fmi2FMUstate)s;
+}
+
+static State *known_state(Comp *c, enum Fn fn, fmi2FMUstate state)
+{
+    State *s = state ? find_state(c, state) : NULL;
+    if (!s) logf_(c, fmi2Error, "%s: FMUstate = %p is not a live FMU state of this instance (freed, or from "
+                                "another instance)", TABLE[fn].name, state);
+    return s;
+}
+
 fmi2Status fmi2GetFMUstate(fmi2Component comp, fmi2FMUstate *state)
 {
-    COMP
+    ENTER(GetFMUstate)
+    int fresh;
+    State *s = state_slot(c, F_GetFMUstate, state, &fresh);
+    if (!s) return fmi2Error;
     GIL_BEGIN
-    PyObject *s = PyObject_CallMethod(c->slave, "_get_fmu_state", NULL);
-    fmi2Status st = fmi2OK;
-    if (!s) {
-        st = fail(c, "fmi2GetFMUstate");
-    } else {
-        drain_log(c);
-        if (*state) Py_DECREF((PyObject *)*state); /* FMI 2.0: overwrite a given state */
-        *state = (fmi2FMUstate)s;
-    }
+    PyObject *py = PyObject_CallMethod(c->slave, "_get_fmu_state", NULL);
+    fmi2Status st = py ? drain_log(c) : fail(c, "fmi2GetFMUstate");
+    if (py) fill_state(c, s, fresh, py, c->st, c->time, c->start, c->stop, c->stop_defined, state);
+    else if (fresh) free(s);
     GIL_END
-    return st;
+    return st > fmi2Warning && py ? fmi2Warning : st;
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component comp, fmi2FMUstate state)
 {
-    COMP
-    if (!state) return fmi2Error;
+    ENTER(SetFMUstate)
+    State *s = known_state(c, F_SetFMUstate, state);
+    if (!s) return fmi2Error;
     GIL_BEGIN
-    fmi2Status st = finish(c, "fmi2SetFMUstate", PyObject_CallMethod(c->slave, "_set_fmu_state", "O", (PyObject *)state));
+    /* the slave validates the whole state before it assigns anything (atomic) */
+    fmi2Status st = finish(c, "fmi2SetFMUstate", PyObject_CallMethod(c->slave, "_set_fmu_state", "O", s->py));
     GIL_END
+    if (st <= fmi2Warning) {
+        c->st = s->st;
+        c->time = s->time;
+        c->start = s->start;
+        c->stop = s->stop;
+        c->stop_defined = s->stop_defined;
+    }
     return st;
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component comp, fmi2FMUstate *state)
 {
-    COMP
-    if (!state || !*state) return fmi2OK;
+    ENTER(FreeFMUstate)
+    enum Fn fn_ = F_FreeFMUstate;
+    NEED(state, "FMUstate")
+    if (!*state) return fmi2OK; /* FMI 2.0: freeing a NULL state is ignored */
+    State *s = known_state(c, F_FreeFMUstate, *state);
+    if (!s) return fmi2Error;
     GIL_BEGIN
-    Py_DECREF((PyObject *)*state);
-    *state = NULL;
+    drop_state(c, s);
     GIL_END
+    *state = NULL;
     return fmi2OK;
 }
 
-static PyObject *state_bytes(Comp *c, fmi2FMUstate state)
+/* Serialized state: a 56-byte header, then the slave's bytes (its
+ * _fmu_state_to_bytes). Header, little-endian: magic "FMI2PYST", u32 format version,
+ * u32 state-machine state, f64 time, f64 start time, f64 stop time, u32 stop defined,
+ * u32 CRC-32 of everything else (header and payload), u64 payload length. */
+#define SER_MAGIC "FMI2PYST"
+#define SER_VERSION 1u
+#define SER_HEAD 56
+#define SER_MAX ((size_t)1 << 30)
+
+static uint32_t crc32_update(uint32_t crc, const unsigned char *p, size_t n)
 {
-    return PyObject_CallMethod(c->cls, "_fmu_state_to_bytes", "O", (PyObject *)state);
+    crc = ~crc;
+    for (size_t i = 0; i < n; i++) {
+        crc ^= p[i];
+        for (int k = 0; k < 8; k++) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+    }
+    return ~crc;
+}
+
+static uint32_t ser_crc(const unsigned char *b, size_t n)
+{
+    return crc32_update(crc32_update(0, b, 44), b + 48, n - 48);
+}
+
+static void put_u32(unsigned char *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++) p[i] = (unsigned char)(v >> (8 * i));
+}
+
+static void put_u64(unsigned char *p, uint64_t v)
+{
+    for (int i = 0; i < 8; i++) p[i] = (unsigned char)(v >> (8 * i));
+}
+
+static void put_f64(unsigned char *p, double x)
+{
+    uint64_t v;
+    memcpy(&v, &x, 8);
+    put_u64(p, v);
+}
+
+static uint32_t get_u32(const unsigned char *p)
+{
+    uint32_t v = 0;
+    for (int i = 0; i < 4; i++) v |= (uint32_t)p[i] << (8 * i);
+    return v;
+}
+
+static uint64_t get_u64(const unsigned char *p)
+{
+    uint64_t v = 0;
+    for (int i = 0; i < 8; i++) v |= (uint64_t)p[i] << (8 * i);
+    return v;
+}
+
+static double get_f64(const unsigned char *p)
+{
+    uint64_t v = get_u64(p);
+    double x;
+    memcpy(&x, &v, 8);
+    return x;
+}
+
+/* The serialized state (a bytes object, cached in the state), or NULL with an error. */
+static PyObject *serialized(Comp *c, State *s)
+{
+    if (s->ser) return s->ser;
+    PyObject *payload = PyObject_CallMethod(c->slave, "_fmu_state_to_bytes", "O", s->py);
+    if (payload && !PyBytes_Check(payload)) {
+        PyErr_Format(PyExc_TypeError, "slave._fmu_state_to_bytes returned a %s, expected bytes",
+                     Py_TYPE(payload)->tp_name);
+        Py_CLEAR(payload);
+    }
+    if (!payload) return NULL;
+    size_t np = (size_t)PyBytes_GET_SIZE(payload);
+    if (np > SER_MAX) {
+        Py_DECREF(payload);
+        PyErr_Format(PyExc_ValueError, "serialized state of %zu bytes exceeds the limit of %zu", np, SER_MAX);
+        return NULL;
+    }
+    PyObject *out = PyBytes_FromStringAndSize(NULL, (Py_ssize_t)(SER_HEAD + np));
+    if (out) {
+        unsigned char *b = (unsigned char *)PyBytes_AS_STRING(out);
+        memcpy(b, SER_MAGIC, 8);
+        put_u32(b + 8, SER_VERSION);
+        put_u32(b + 12, s->st);
+        put_f64(b + 16, s->time);
+        put_f64(b + 24, s->start);
+        put_f64(b + 32, s->stop);
+        put_u32(b + 40, (uint32_t)s->stop_defined);
+        put_u64(b + 48, np);
+        memcpy(b + SER_HEAD, PyBytes_AS_STRING(payload), np);
+        put_u32(b + 44, ser_crc(b, SER_HEAD + np));
+    }
+    Py_DECREF(payload);
+    s->ser = out;
+    return out;
 }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component comp, fmi2FMUstate state, size_t *size)
 {
-    COMP
+    ENTER(SerializedFMUstateSize)
+    enum Fn fn_ = F_SerializedFMUstateSize;
+    NEED(size, "size")
+    State *s = known_state(c, fn_, state);
+    if (!s) return fmi2Error;
     GIL_BEGIN
-    PyObject *b = state_bytes(c, state);
-    if (b && PyBytes_Check(b)) *size = (size_t)PyBytes_Size(b);
-    fmi2Status st = finish(c, "fmi2SerializedFMUstateSize", b);
+    PyObject *b = serialized(c, s);
+    if (b) *size = (size_t)PyBytes_GET_SIZE(b);
+    fmi2Status st = b ? drain_log(c) : fail(c, "fmi2SerializedFMUstateSize");
     GIL_END
     return st;
 }
 
 fmi2Status fmi2SerializeFMUstate(fmi2Component comp, fmi2FMUstate state, fmi2Byte out[], size_t size)
 {
-    COMP
+    ENTER(SerializeFMUstate)
+    enum Fn fn_ = F_SerializeFMUstate;
+    NEED(out, "serializedState[]")
+    State *s = known_state(c, fn_, state);
+    if (!s) return fmi2Error;
     GIL_BEGIN
-    PyObject *b = state_bytes(c, state);
-    if (b && PyBytes_Check(b)) {
-        if ((size_t)PyBytes_Size(b) > size) {
-            Py_DECREF(b);
-            b = NULL;
-            PyErr_SetString(PyExc_ValueError, "buffer smaller than fmi2SerializedFMUstateSize");
-        } else {
-            memcpy(out, PyBytes_AsString(b), (size_t)PyBytes_Size(b));
-        }
+    PyObject *b = serialized(c, s);
+    fmi2Status st;
+    if (!b) {
+        st = fail(c, "fmi2SerializeFMUstate");
+    } else if ((size_t)PyBytes_GET_SIZE(b) > size) {
+        st = logf_(c, fmi2Error, "fmi2SerializeFMUstate: buffer of %zu bytes, the state needs %zd "
+                                 "(fmi2SerializedFMUstateSize)", size, PyBytes_GET_SIZE(b));
+    } else {
+        memcpy(out, PyBytes_AS_STRING(b), (size_t)PyBytes_GET_SIZE(b));
+        st = drain_log(c);
     }
-    fmi2Status st = finish(c, "fmi2SerializeFMUstate", b);
     GIL_END
     return st;
 }
 
+/* Check the header of serialized bytes; returns the error text or NULL. */
+static const char *check_header(const unsigned char *b, size_t size)
+{
+    if (size < SER_HEAD) return "shorter than the header (truncated, or not a serialized state)";
+    if (memcmp(b, SER_MAGIC, 8) != 0) return "not a serialized state of this FMU (bad magic)";
+    if (get_u32(b + 8) != SER_VERSION) return "unknown format version (expected 1)";
+    if (get_u64(b + 48) != size - SER_HEAD) return "length does not match its header (truncated or extended)";
+    if (get_u32(b + 44) != ser_crc(b, size)) return "checksum mismatch (corrupted)";
+    uint32_t st = get_u32(b + 12);
+    if (!(st & ST_ANY) || (st & (st - 1))) return "invalid state-machine state";
+    if (!isfinite(get_f64(b + 16)) || !isfinite(get_f64(b + 24)) || get_u32(b + 40) > 1 ||
+        (get_u32(b + 40) && !isfinite(get_f64(b + 32))))
+        return "invalid time fields";
+    return NULL;
+}
+
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component comp, const fmi2Byte in[], size_t size, fmi2FMUstate *state)
 {
-    COMP
+    ENTER(DeSerializeFMUstate)
+    enum Fn fn_ = F_DeSerializeFMUstate;
+    NEED(in, "serializedState[]")
+    if (size > SER_MAX) return logf_(c, fmi2Error, "fmi2DeSerializeFMUstate: %zu bytes, more than the limit of %zu",
+                                     size, SER_MAX);
+    const unsigned char *b = (const unsigned char *)in;
+    const char *bad = check_header(b, size);
+    if (bad) return logf_(c, fmi2Error, "fmi2DeSerializeFMUstate: %zu bytes: %s", size, bad);
+    int fresh;
+    State *s = state_slot(c, fn_, state, &fresh);
+    if (!s) return fmi2Error;
     GIL_BEGIN
-    PyObject *b = PyBytes_FromStringAndSize(in, (Py_ssize_t)size);
-    PyObject *s = b ? PyObject_CallMethod(c->cls, "_fmu_state_from_bytes", "O", b) : NULL;
-    Py_XDECREF(b);
-    fmi2Status st = fmi2OK;
-    if (!s) {
-        st = fail(c, "fmi2DeSerializeFMUstate");
-    } else {
-        drain_log(c);
-        *state = (fmi2FMUstate)s;
+    PyObject *payload = PyBytes_FromStringAndSize((const char *)b + SER_HEAD, (Py_ssize_t)(size - SER_HEAD));
+    PyObject *py = payload ? PyObject_CallMethod(c->slave, "_fmu_state_from_bytes", "O", payload) : NULL;
+    Py_XDECREF(payload);
+    /* a slave that can check a state before it is used says so early */
+    if (py && PyObject_HasAttrString(c->slave, "_validate_fmu_state")) {
+        PyObject *r = PyObject_CallMethod(c->slave, "_validate_fmu_state", "O", py);
+        if (!r) Py_CLEAR(py);
+        Py_XDECREF(r);
     }
+    fmi2Status st = py ? drain_log(c) : fail(c, "fmi2DeSerializeFMUstate");
+    if (py) fill_state(c, s, fresh, py, get_u32(b + 12), get_f64(b + 16), get_f64(b + 24), get_f64(b + 32),
+                       (int)get_u32(b + 40), state);
+    else if (fresh) free(s);
     GIL_END
-    return st;
+    return st > fmi2Warning && py ? fmi2Warning : st;
 }
 
 /* ------------------------------------------------------------------ co-simulation */
 fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior)
 {
-    COMP
+    ENTER(DoStep)
     (void)noSetPrior;
+    /* rejected before Python sees them: the instance stays in stepComplete */
+    if (!isfinite(t) || !isfinite(h) || !(h > 0) || !isfinite(t + h))
+        return logf_(c, fmi2Error, "fmi2DoStep: currentCommunicationPoint = %g s, communicationStepSize = %g s; "
+                                   "expected finite values with communicationStepSize > 0", t, h);
+    if (fabs(t - c->time) > 1e-9 * fmax(1.0, fabs(c->time)))
+        return logf_(c, fmi2Error, "fmi2DoStep: currentCommunicationPoint = %.17g s, expected the end of the "
+                                   "previous step, %.17g s", t, c->time);
+    if (c->stop_defined && t + h > c->stop + 1e-9 * fmax(1.0, fabs(c->stop)))
+        return logf_(c, fmi2Error, "fmi2DoStep: the step ends at %.17g s, after stopTime = %.17g s", t + h, c->stop);
     GIL_BEGIN
     PyObject *r = PyObject_CallMethod(c->slave, "do_step", "dd", t, h);
     fmi2Status st;
     if (!r) {
-        st = fail(c, "fmi2DoStep");
+        char where[160];
+        snprintf(where, sizeof where, "fmi2DoStep over [%.17g, %.17g] s failed", t, t + h);
+        st = fail(c, where);
+        c->st = ST_ERROR;
+    } else if (!PyBool_Check(r)) {
+        st = drain_log(c);
+        st = logf_(c, fmi2Error, "fmi2DoStep over [%.17g, %.17g] s: slave.do_step returned a %s, expected True or "
+                                 "False; the instance is now in the error state", t, t + h, Py_TYPE(r)->tp_name);
+        c->st = ST_ERROR;
+    } else if (r == Py_True) {
+        st = drain_log(c);
+        if (st > fmi2Warning) st = fmi2Warning;
+        c->time = t + h;
     } else {
         drain_log(c);
-        st = PyObject_IsTrue(r) == 1 ? fmi2OK : fmi2Discard;
-        Py_DECREF(r);
+        st = logf_(c, fmi2Discard, "fmi2DoStep over [%.17g, %.17g] s: the slave did not complete the step "
+                                   "(stepFailed: get values, restore a state, terminate or reset)", t, t + h);
+        c->st = ST_STEP_FAILED;
     }
+    Py_XDECREF(r);
     GIL_END
     return st;
 }
 
 fmi2Status fmi2CancelStep(fmi2Component comp)
 {
-    COMP
-    emit(&c->cb, c->name, fmi2Error, "logStatusError", "fmi2CancelStep: doStep is synchronous, nothing to cancel");
+    ENTER(CancelStep) /* never allowed: doStep is synchronous, no step is ever in progress */
     return fmi2Error;
 }
 
-static fmi2Status unsupported(fmi2Component comp, const char *what)
+static fmi2Status unsupported(fmi2Component comp, enum Fn fn, const char *why)
 {
-    COMP
-    emit(&c->cb, c->name, fmi2Error, "logStatusError", what);
-    return fmi2Error;
+    Comp *c = enter(comp, fn);
+    if (!c) return fmi2Error;
+    return logf_(c, fmi2Error, "%s: %s", TABLE[fn].name, why);
 }
 
-fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[], size_t nu,
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component comp, const fmi2ValueReference u[], size_t nu,
                                         const fmi2ValueReference z[], size_t nz, const fmi2Real dv[], fmi2Real dz[])
 {
     (void)u, (void)nu, (void)z, (void)nz, (void)dv, (void)dz;
-    return unsupported(c, "fmi2GetDirectionalDerivative: not provided (providesDirectionalDerivative=false)");
+    return unsupported(comp, F_GetDirectionalDerivative, "not provided (providesDirectionalDerivative=false)");
 }
 
-fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component comp, const fmi2ValueReference vr[], size_t n,
                                        const fmi2Integer order[], const fmi2Real value[])
 {
     (void)vr, (void)n, (void)order, (void)value;
-    return unsupported(c, "fmi2SetRealInputDerivatives: inputs are held constant (canInterpolateInputs=false)");
+    return unsupported(comp, F_SetRealInputDerivatives, "inputs are held constant (canInterpolateInputs=false)");
 }
 
-fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component comp, const fmi2ValueReference vr[], size_t n,
                                         const fmi2Integer order[], fmi2Real value[])
 {
     (void)vr, (void)n, (void)order, (void)value;
-    return unsupported(c, "fmi2GetRealOutputDerivatives: not provided (maxOutputDerivativeOrder=0)");
+    return unsupported(comp, F_GetRealOutputDerivatives, "not provided (maxOutputDerivativeOrder=0)");
+}
+
+/* Status queries (FMI 2.0.x section 4.2.3): the last successful time is known here;
+ * everything else is fmi2Discard, "not able to return the required status". */
+static fmi2Status status_query(fmi2Component comp, enum Fn fn, fmi2StatusKind s, void *value, int kind)
+{
+    Comp *c = enter(comp, fn);
+    if (!c) return fmi2Error;
+    enum Fn fn_ = fn;
+    NEED(value, "value")
+    if (kind == K_REAL && s == fmi2LastSuccessfulTime) {
+        *(fmi2Real *)value = c->time;
+        return fmi2OK;
+    }
+    if (kind == K_BOOLEAN && s == fmi2Terminated) {
+        *(fmi2Boolean *)value = c->st == ST_STEP_FAILED ? fmi2True : fmi2False;
+        return fmi2OK;
+    }
+    return logf_(c, fmi2Discard, "%s: status kind %d not available (doStep is synchronous)", TABLE[fn].name, (int)s);
 }
 
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value)
 {
-    (void)s, (void)value;
-    return unsupported(c, "fmi2GetStatus: doStep is synchronous, no pending status");
+    return status_query(c, F_GetStatus, s, value, K_NONE);
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
 {
-    (void)s, (void)value;
-    return unsupported(c, "fmi2GetRealStatus: doStep is synchronous, no pending status");
+    return status_query(c, F_GetRealStatus, s, value, K_REAL);
 }
 
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value)
 {
-    (void)s, (void)value;
-    return unsupported(c, "fmi2GetIntegerStatus: doStep is synchronous, no pending status");
+    return status_query(c, F_GetIntegerStatus, s, value, K_INTEGER);
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
 {
-    (void)s, (void)value;
-    return unsupported(c, "fmi2GetBooleanStatus: doStep is synchronous, no pending status");
+    return status_query(c, F_GetBooleanStatus, s, value, K_BOOLEAN);
 }
 
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value)
 {
-    (void)s, (void)value;
-    return unsupported(c, "fmi2GetStringStatus: doStep is synchronous, no pending status");
+    return status_query(c, F_GetStringStatus, s, value, K_STRING);
 }
