@@ -86,3 +86,111 @@ def test_every_step_output(tmp_path, capsys):
     assert rc == 0
     t = [float(ln.split(",")[0]) for ln in out.read_text().splitlines()[3:]]
     assert 10 < len(t) < 500 and t[-1] == 2.0 and all(b > a for a, b in zip(t, t[1:]))
+
+
+# ---------------------------------------------------------------- issue 8, one case per defect
+SIM = ["simulate", "--preset", "vshape-table1", "--voltage", "6000", "--duration", "0.1"]
+
+
+@pytest.mark.parametrize("extra,needle", [
+    (["--out", "/nonexistent-folder/x.csv"], "--out: folder '/nonexistent-folder' does not exist"),
+    (["--out", "."], "--out: expected a file name, got '.'"),
+    (["--out", ".."], "--out: '..' is a folder"),
+    (["--plot", "run.svgz"], "--plot: 'run.svgz' has no known image suffix"),
+    (["--out", "/proc/dfa.csv"], "--out: cannot create a file in folder '/proc'"),
+    (["--set", "N=inf"], "N: got inf, expected an integer"),
+    (["--set", "N=nan"], "N: got nan"),
+    (["--duration", "1e7"], "--dt: 1e+10 output samples"),
+    (["--frequency", "5"], "--frequency: does not apply to --waveform dc"),
+    (["--reset-frequency", "5"], "--reset-frequency: applies only with --reset"),
+    (["--set", "rho_l=2e12", "--set", "rho_l=3e12"], "--set: rho_l given twice"),
+    (["--set", "m_rho=1"], "resistivity.m_rho: does not apply to law 'constant'"),
+    (["--voltage", "1e9"], "argument --voltage: got 1e9, expected a finite number >= -1e+06 and <= 1e+06"),
+    (["--json=1"], "argument --json: takes no value"),
+])
+def test_issue8_bad_input_is_one_line(tmp_path, monkeypatch, capsys, extra, needle):
+    monkeypatch.chdir(tmp_path)
+    rc, _, err = run(SIM + extra, capsys)
+    lines = err.strip().splitlines()
+    assert rc == 2 and len(lines) == 1 and lines[0].startswith("dfa: error: ") and needle in lines[0], err
+
+
+def test_peano_volume_and_nominal_integer(tmp_path, capsys):
+    rc, _, err = run(["simulate", "--preset", "peano-fig10", "--voltage", "6000", "--duration", "0.1",
+                      "--set", "volume=1e-15"], capsys)
+    assert rc == 2 and "volume: 1e-15 m^3 leaves the pouch nearly flat" in err
+    f = tmp_path / "p.toml"
+    f.write_text(load_text("vshape-table1").replace("N = 81", "N = 81.0"))
+    rc, out, err = run(["simulate", "--params", str(f), "--voltage", "6000", "--duration", "0.05", "--json"], capsys)
+    assert rc == 0, err                                  # 81.0 is read as 81
+
+
+def load_text(name):
+    from dfa_model.parameters import preset_text
+    return preset_text(name)
+
+
+def test_negative_numbers_are_values(capsys):
+    a = run(SIM + ["--force", "-1e2", "--json"], capsys)
+    b = run(SIM + ["--force=-1e2", "--json"], capsys)
+    assert a[0] == b[0] == 0 and json.loads(a[1])["final_stroke"] == json.loads(b[1])["final_stroke"]
+
+
+def test_solver_failure_keeps_the_partial_result(tmp_path, capsys):
+    out = tmp_path / "run.csv"
+    rc, _, err = run(SIM + ["--max-steps", "15", "--out", str(out)], capsys)
+    assert rc == 2 and "step limit" in err and f"the partial result (up to t = " in err and str(out) in err
+    text = out.read_text()
+    assert "# PARTIAL:" in text and len(text.splitlines()) > 4
+
+
+def test_sweep_results_survive_a_failing_out(tmp_path, monkeypatch, capsys):
+    """The --out check passes, then the write fails after the runs (disk full, folder
+    removed): the rows go to a temporary file named in the error."""
+    from dfa_model import sweep
+    real = sweep.write_csv
+    target = tmp_path / "s.csv"
+
+    def flaky(rows, path):
+        if str(path) == str(target):
+            raise OSError(28, "No space left on device")
+        real(rows, path)
+
+    monkeypatch.setattr(sweep, "write_csv", flaky)
+    rc, _, err = run(["sweep", "--preset", "vshape-table1", "--set", "N=21", "--voltage", "6000", "--duration",
+                      "0.05", "--vary", "rho_l=2e12,3e12", "--workers", "1", "--quiet", "--out", str(target)], capsys)
+    assert rc == 2 and "No space left on device" in err and "the results are in " in err
+    kept = err.strip().split("the results are in ")[-1]
+    rows = list(csv.DictReader(open(kept)))
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+
+
+def test_unreachable_scheduler_is_one_line_within_its_timeout(capsys):
+    pytest.importorskip("dask.distributed")
+    import time
+    t0 = time.perf_counter()
+    rc, _, err = run(["sweep", "--preset", "vshape-table1", "--voltage", "6000", "--duration", "0.05",
+                      "--vary", "rho_l=2e12", "--scheduler", "tcp://127.0.0.1:9", "--quiet"], capsys)
+    assert rc == 2 and err.startswith("dfa: error: --scheduler: cannot reach") and len(err.strip().splitlines()) == 1
+    assert time.perf_counter() - t0 < 30
+
+
+def test_sweep_setup_errors_before_any_run(capsys):
+    for vary, needle in ((["rho_l=2e12", "rho_l=3e12"], "--vary: rho_l given twice"),
+                         (["theta0=20,30"], "theta0: applies only to layout 'v-shaped'"),
+                         (["a=0.01"], "geometry.a: does not apply to layout 'peano-hasel'")):
+        argv = ["sweep", "--preset", "peano-fig10" if "theta0" in vary[0] or "a=" in vary[0] else "vshape-table1",
+                "--voltage", "6000", "--duration", "0.05", "--quiet"]
+        for v in vary:
+            argv += ["--vary", v]
+        rc, _, err = run(argv, capsys)
+        assert rc == 2 and needle in err, err
+
+
+def test_internal_errors_are_one_line(monkeypatch, capsys):
+    """The safety net: a bug is one line and exit 70, never a traceback (the fuzz suite
+    asserts it is never reached)."""
+    import dfa_model.cli as cli
+    monkeypatch.setattr(cli, "cmd_params", lambda args: 1 / 0)
+    rc, _, err = run(["params"], capsys)
+    assert rc == 70 and err.startswith("dfa: internal error: ZeroDivisionError") and "Traceback" not in err
