@@ -88,7 +88,7 @@ class Result:
     @property
     def peak_stroke(self) -> float:
         """Largest stroke over the run (m)."""
-        return float(self.trace.extrema(self.trace.t0, self.trace.t1)[1][0])
+        return self.trace.max()
 
     def _window(self, label):
         span = self.stage(label)

@@ -175,8 +175,8 @@ def _output_times(t_eval, T, extra_columns):
 
 def zip_force_per_volt2(model) -> float:
     """Static zipping force at x = 0 per V^2 (uncharged: the force is exactly ~ V^2)."""
-    from .statics import static_force
-    return abs(float(static_force(model, 0.0, 1.0)))
+    from .statics import static_state
+    return abs(model.electrostatic_force(static_state(model, 0.0, 1.0), 1.0))
 
 
 def check_mechanics(model, k_total, V_max, F_max, c_zip=None):

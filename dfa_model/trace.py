@@ -44,14 +44,14 @@ class StrokeTrace:
         # integral from t[0] to each knot
         self._cum = np.concatenate([[0.0], np.cumsum(self.h * (self.c0 + self.c1 / 2 + self.c2 / 3))])
         # knot values (piece starts, then the end) and interior vertices, for extrema
-        self._kx = np.clip(np.append(self.c0, self.c0[-1] + self.c1[-1] + self.c2[-1]) if self.h.size
-                           else np.array([self.x_last]), lo, hi)
+        self._kx = _clip(np.append(self.c0, self.c0[-1] + self.c1[-1] + self.c2[-1]) if self.h.size
+                         else np.array([self.x_last]), lo, hi)
         with np.errstate(divide="ignore", invalid="ignore"):
             sv = -self.c1 / (2.0 * self.c2)
-        inside = (self.c2 != 0) & (sv > 0) & (sv < 1)
+        inside = (sv > 0) & (sv < 1)          # c2 = 0 gives inf or nan here: never inside
         self._vt = self.t[:-1][inside] + sv[inside] * self.h[inside]
         sv = sv[inside]
-        self._vx = np.clip(self.c0[inside] + sv * (self.c1[inside] + sv * self.c2[inside]), lo, hi)
+        self._vx = _clip(self.c0[inside] + sv * (self.c1[inside] + sv * self.c2[inside]), lo, hi)
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -81,7 +81,7 @@ class StrokeTrace:
 
     def _locate(self, tq):
         """Piece index and fraction s for times tq (clamped into the trace's span)."""
-        tq = np.clip(np.asarray(tq, float), self.t[0], self.t[-1])
+        tq = _clip(np.asarray(tq, float), self.t[0], self.t[-1])
         i = np.clip(np.searchsorted(self.t, tq, side="right") - 1, 0, max(self.h.size - 1, 0))
         if self.h.size == 0:
             return tq, i, np.zeros_like(tq)
@@ -92,7 +92,7 @@ class StrokeTrace:
         tq, i, s = self._locate(tq)
         if self.h.size == 0:
             return np.full(np.shape(tq), self.x_last)
-        return np.clip(self.c0[i] + s * (self.c1[i] + s * self.c2[i]), self.lo, self.hi)
+        return _clip(self.c0[i] + s * (self.c1[i] + s * self.c2[i]), self.lo, self.hi)
 
     def _primitive(self, tq):
         tq, i, s = self._locate(tq)
@@ -124,6 +124,14 @@ class StrokeTrace:
                                                          _reduce(self._vt, self._vx, a, b, np.maximum, -np.inf)))
         return lo, hi
 
+    def max(self) -> float:
+        """Largest value over the whole trace."""
+        return float(max(self._kx.max(), self._vx.max(initial=-np.inf)))
+
+    def min(self) -> float:
+        """Smallest value over the whole trace."""
+        return float(min(self._kx.min(), self._vx.min(initial=np.inf)))
+
     def argmax(self, a=None, b=None) -> float:
         """Time at which x is largest over [a, b] (the first, if several)."""
         a = self.t0 if a is None else float(a)
@@ -133,6 +141,11 @@ class StrokeTrace:
         vals = self(cand_t)
         best = np.max(vals)
         return float(np.min(cand_t[vals == best]))
+
+
+def _clip(x, lo, hi):
+    """np.clip without its wrapper's overhead (this runs on every result)."""
+    return np.minimum(np.maximum(x, lo), hi)
 
 
 def _reduce(times, vals, a, b, ufunc, empty):
