@@ -20,6 +20,15 @@ from . import limits
 from .equations import K
 from .solver import _STATUS, SolverError, _finite_in, check_mechanics, zip_force_per_volt2
 
+class InputRejected(ValueError):
+    """A step refused before anything changed (a bad step size or input, or mechanics
+    too fast to resolve at this voltage): the stepper can go on with other inputs.
+    `fmi_rejected` tells the FMU binary to return fmi2Error without entering the
+    error state (fmu/c/fmi2_python.c)."""
+
+    fmi_rejected = True
+
+
 # output name -> record column (units: m, m/s, m, rad, N, A, F, J)
 OUTPUTS = {"stroke": R_X, "velocity": R_V, "zipped_length": R_LZ, "zipping_angle": R_ANG,
            "electrostatic_force": R_FE, "current": R_I, "capacitance": R_C, "stored_energy": R_U}
@@ -92,12 +101,15 @@ class Stepper:
     def step(self, dt: float, voltage: float, force: float = 0.0) -> None:
         """Integrate from t to t + dt with the voltage (V) and the force (N, opposing
         zipping) held constant; a change from the previous inputs is a jump at t."""
-        _finite_positive("dt", dt)
-        V = _finite_in("voltage", voltage, limits.MAX_VOLTAGE)
-        F = _finite_in("force", force, limits.MAX_FORCE)
-        if (V, F) != self._checked:
-            check_mechanics(self.model, self.model.mat[K], abs(V), F, self._c_zip)
-            self._checked = (V, F)
+        try:
+            _finite_positive("dt", dt)
+            V = _finite_in("voltage", voltage, limits.MAX_VOLTAGE)
+            F = _finite_in("force", force, limits.MAX_FORCE)
+            if (V, F) != self._checked:
+                check_mechanics(self.model, self.model.mat[K], abs(V), F, self._c_zip)
+                self._checked = (V, F)
+        except ValueError as exc:         # nothing has changed yet
+            raise InputRejected(str(exc)) from None
         target = self.t + dt
         if self.exact:
             rec, _ = self._integrate(np.array([self.t, target]), V, F, np.array([target]), False)

@@ -61,9 +61,9 @@ def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.Pa
         variant = script.resolve() != SLAVE
         if variant:
             shutil.copy2(SLAVE, src / SLAVE.name)
-        from .dfa_actuator import UNITS
+        from .dfa_actuator import RANGES, UNITS
         return _package(script, cls, out, list(src.iterdir()), units=UNITS, serialize=True,
-                        beside=[SLAVE] if variant else [], canGetAndSetFMUstate=True)
+                        beside=[SLAVE] if variant else [], ranges=RANGES, canGetAndSetFMUstate=True)
 
 
 # the co-simulation example's companions: slave module, slave class
@@ -80,10 +80,12 @@ def build_companion_fmu(kind: str, out: str | os.PathLike) -> Path:
     return _package(HERE / f"{name}.py", cls, out, [], units=module.UNITS)
 
 
-def _package(script: Path, cls: str, out, project_files, units: dict, serialize=False, beside=(), **flags) -> Path:
+def _package(script: Path, cls: str, out, project_files, units: dict, serialize=False, beside=(), ranges=None,
+             **flags) -> Path:
     """pythonfmu packs the slave; _rewrite fixes the description (units: variable name ->
-    unit, the slave module's UNITS) and adds our binary. `beside`: modules the script
-    imports, copied next to it (pythonfmu imports the script to read its interface)."""
+    unit, the slave module's UNITS; ranges: variable name -> (min, max), its RANGES) and
+    adds our binary. `beside`: modules the script imports, copied next to it (pythonfmu
+    imports the script to read its interface)."""
     try:
         from pythonfmu import FmuBuilder
     except ImportError:
@@ -101,14 +103,14 @@ def _package(script: Path, cls: str, out, project_files, units: dict, serialize=
             shutil.copy2(extra, src / Path(extra).name)
         raw = FmuBuilder.build_FMU(src / script.name, dest=tmp / f"{cls}.fmu", project_files=project_files,
                                    needsExecutionTool=True, **flags)
-        _rewrite(Path(raw), out, tmp, cls, units, serialize)
+        _rewrite(Path(raw), out, tmp, cls, units, serialize, ranges or {})
     return out
 
 
-def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize) -> None:
+def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize, ranges) -> None:
     with zipfile.ZipFile(raw) as zin:
         entries = {name: zin.read(name) for name in zin.namelist() if not name.startswith("binaries/")}
-    entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"], units, serialize)
+    entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"], units, serialize, ranges)
     entries["resources/slaveclass.txt"] = (cls + "\n").encode()
     entries[f"binaries/{_platform()}/{cls}.so"] = compile_binary(tmp, cls)
     tmp_out = out.with_suffix(".fmu.part")
@@ -147,7 +149,7 @@ def compile_binary(tmp: Path, name: str) -> bytes:
     return so.read_bytes()
 
 
-def _fix_description(xml: bytes, units_of: dict, serialize: bool) -> bytes:
+def _fix_description(xml: bytes, units_of: dict, serialize: bool, ranges: dict | None = None) -> bytes:
     root = ET.fromstring(xml)
     units: dict[str, None] = {}
     outputs: list[int] = []
@@ -157,6 +159,10 @@ def _fix_description(xml: bytes, units_of: dict, serialize: bool) -> bytes:
         if real is not None and unit:
             real.set("unit", unit)
             units[unit] = None
+        if real is not None and sv.get("name") in (ranges or {}):
+            lo, hi = ranges[sv.get("name")]
+            real.set("min", f"{lo:.16g}")
+            real.set("max", f"{hi:.16g}")
         if sv.get("causality") == "output":
             outputs.append(i)
     # UnitDefinitions must precede ModelVariables (FMI 2.0 schema order)

@@ -35,6 +35,7 @@ from pythonfmu.fmi2slave import Fmi2Slave
 from pythonfmu.variables import Boolean, Integer, Real, String
 from pythonfmu.default_experiment import DefaultExperiment
 
+from dfa_model import limits
 from dfa_model import parameters as P
 from dfa_model import statecodec
 from dfa_model.stepper import OUTPUTS, Stepper
@@ -61,6 +62,9 @@ INPUT_INFO = {
     "voltage": ("V", "voltage across the electrodes"),
     "force": ("N", "external load force, opposing zipping"),
 }
+# [min, max] of the inputs (dfa_model.limits): build.py writes them into the model
+# description, the binary refuses a value outside them in fmi2SetReal
+RANGES = {"voltage": (-limits.MAX_VOLTAGE, limits.MAX_VOLTAGE), "force": (-limits.MAX_FORCE, limits.MAX_FORCE)}
 # every parameter variable, in registration order (the FMU state holds them by name)
 PARAM_KEYS = ("layout", *P.SPEC, "land_on_communication_points", *EXTRA)
 STATE_KEYS = ("params", "inputs", "experiment", "stepper")
@@ -87,8 +91,10 @@ class DFAActuator(Fmi2Slave):
         self._stepper_key = None        # the parameters and experiment the stepper was built for
         self._templates = {}            # parameters -> structure of their stepper states
         for name, (unit, text) in INPUT_INFO.items():
-            self.register_variable(Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
-                                        description=f"{text} [{unit}]", setter=self._input_setter(name)))
+            var = Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
+                       description=f"{text} [{unit}]", setter=self._input_setter(name))
+            var.min, var.max = RANGES[name]          # read by the binary (fast-path bounds)
+            self.register_variable(var)
         for name, (unit, text) in OUTPUT_INFO.items():
             self.register_variable(Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
                                         initial=Fmi2Initial.calculated, description=f"{text} [{unit}]"))

@@ -423,6 +423,7 @@ ALLOWED = {"setup": {INST}, "enter": {INST}, "exit": {INIT}, "terminate": {SC, S
            "set_real": SET, "set_int": SET, "set_bool": SET, "set_str": SET, "get_state": ANY, "set_state": ANY,
            "free_state": ANY, "serialize": ANY, "deserialize": ANY, "do_step": {SC}}
 X_E = DFAModel(preset("vshape-table1")).kin.x_e
+RANGES = {"voltage": (-1e6, 1e6), "force": (-1e6, 1e6)}     # dfa_model.limits, in the model description
 FUZZ_STATS = {"sequences": 0, "calls": 0, "statuses": {}}
 NAN, INF = float("nan"), float("inf")
 KEYS = ("layout", "rho_l", "rho_t_s", "N", "scheme", "law")      # the parameter-file keys the fuzz sets
@@ -465,8 +466,9 @@ class Oracle:
         """Whether fmi2Set<kind> of `value` on variable `name` is accepted now."""
         if name is None or kinds[name] != kind or name == "stroke":     # unknown, wrong type, output
             return False
-        if name in ("voltage", "force"):                                  # inputs
-            return math.isfinite(value)
+        if name in ("voltage", "force"):                                  # inputs, within their ranges
+            lo, hi = RANGES[name]
+            return math.isfinite(value) and lo <= value <= hi
         if self.state not in (INST, INIT):                                # fixed parameters
             return False
         if name == "land_on_communication_points":
@@ -698,6 +700,34 @@ def test_stroke_within_x_e(md, unzipped):
     s.freeInstance()
     assert min(x) >= 0 and max(x) <= X_E, (min(x), max(x), X_E)
     assert max(x) > 0.999 * X_E           # it does reach the stop (it ran 1e-7 m past it before)
+
+
+def test_refused_inputs_keep_the_instance(md, unzipped, capsys):
+    """An input beyond its range is refused by fmi2SetReal; a step the model refuses
+    before computing (1 MV with b = 1e-6 N s/m: the stroke would cross its range in
+    1e-14 s) is fmi2Error without the error state. Either way the instance steps on."""
+    names = {v.name: v for v in md.modelVariables}
+    assert float(names["voltage"].max) == 1e6 and float(names["force"].min) == -1e6
+    r = vr(md)
+    s = slave(md, unzipped)
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.setReal([r["b"]], [1e-6])
+    s.exitInitializationMode()
+    with pytest.raises(FMICallException) as exc:
+        s.setReal([r["voltage"]], [2e6])
+    assert exc.value.status == 3 and "expected -1e+06 <= value <= 1e+06" in capsys.readouterr().out
+    s.setReal([r["voltage"], r["force"]], [1e6, 0.0])
+    with pytest.raises(FMICallException) as exc:
+        s.doStep(0.0, H)
+    log = capsys.readouterr().out
+    assert exc.value.status == 3 and "refused (nothing changed)" in log and "b: 1e-06 N s/m" in log, log
+    s.setReal([r["voltage"], r["force"]], [6000.0, 5.0])
+    s.doStep(0.0, H)                                   # still stepComplete, at t = 0
+    s.doStep(H, H)
+    assert s.getReal([r["stroke"]])[0] > 0
+    s.terminate()
+    s.freeInstance()
 
 
 # ---------------------------------------------------------------------- targeted

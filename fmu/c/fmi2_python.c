@@ -136,6 +136,7 @@ typedef struct {
     unsigned char set_mask; /* states in which fmi2SetXXX may write it */
     unsigned char fast_set; /* set_mask if it is in the fast-path buffer, else 0 */
     int fast;               /* index into the fast-path buffer, or -1 */
+    double lo, hi;          /* a Real's accepted range (the variable's min/max attributes; +-inf) */
     char *name;
     const char *why;        /* why it cannot be set (in messages) */
 } Var;
@@ -406,6 +407,11 @@ static int check_vrs(Comp *c, enum Fn fn, const fmi2ValueReference vr[], size_t 
                   vr[i], v->name, reals[i]);
             return 0;
         }
+        if (reals && !(reals[i] >= v->lo && reals[i] <= v->hi)) {
+            logf_(c, fmi2Error, "%s: value reference %u (%s) got %g, expected %g <= value <= %g", TABLE[fn].name,
+                  vr[i], v->name, reals[i], v->lo, v->hi);
+            return 0;
+        }
     }
     return 1;
 }
@@ -456,6 +462,20 @@ static void free_vars(Var *vars, size_t n)
     free(vars);
 }
 
+/* A numeric attribute of a pythonfmu variable (the slave may give a Real `min`/`max`),
+ * or `dflt`. */
+static double bound(PyObject *var, const char *attr, double dflt)
+{
+    PyObject *b = PyObject_GetAttrString(var, attr);
+    double x = (b && b != Py_None) ? PyFloat_AsDouble(b) : dflt;
+    Py_XDECREF(b);
+    if (PyErr_Occurred() || isnan(x)) {
+        PyErr_Clear();
+        x = dflt;
+    }
+    return x;
+}
+
 /* The slave's variable table (slave.vars: value reference -> pythonfmu variable), read
  * once, so that access checks need no Python. */
 static int read_vars(PyObject *slave, Var **out, size_t *nout)
@@ -486,7 +506,7 @@ static int read_vars(PyObject *slave, Var **out, size_t *nout)
                 break;
             }
             memset(t + n, 0, (vr + 1 - n) * sizeof(Var));
-            for (size_t k = n; k <= vr; k++) t[k].fast = -1; /* holes: never on the fast path */
+            for (size_t k = n; k <= vr; k++) t[k].fast = -1, t[k].lo = -INFINITY, t[k].hi = INFINITY;
             table = t;
             n = vr + 1;
         }
@@ -511,6 +531,8 @@ static int read_vars(PyObject *slave, Var **out, size_t *nout)
         }
         v->name = strdup(s);
         v->fast = -1;
+        v->lo = bound(var, "min", -INFINITY);
+        v->hi = bound(var, "max", INFINITY);
         set_mask(v, caus, varia, init);
         Py_DECREF(name), Py_DECREF(caus), Py_DECREF(varia), Py_DECREF(init);
         if (!v->name) {
@@ -1075,10 +1097,11 @@ static fmi2Status set_values(fmi2Component comp, enum Fn fn, int kind, const fmi
     if (n == 0) return fmi2OK;
     NEED(vr, "vr[]")
     NEED(value, "value[]")
-    if (kind == K_REAL && c->has_buf) { /* fast path: buffered Reals, settable now, finite */
+    if (kind == K_REAL && c->has_buf) { /* fast path: buffered Reals, settable now, finite, in range */
         const fmi2Real *x = (const fmi2Real *)value;
         size_t i = 0;
-        for (; i < n && vr[i] < c->nvars && (c->vars[vr[i]].fast_set & c->st) && isfinite(x[i]); i++) {
+        for (; i < n && vr[i] < c->nvars && (c->vars[vr[i]].fast_set & c->st) && isfinite(x[i]) &&
+               x[i] >= c->vars[vr[i]].lo && x[i] <= c->vars[vr[i]].hi; i++) {
         }
         if (i == n) {
             double *b = (double *)c->buf.buf;
@@ -1419,10 +1442,21 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
     PyObject *r = PyObject_CallMethod(c->slave, "do_step", "dd", t, h);
     fmi2Status st;
     if (!r) {
-        char where[160];
-        snprintf(where, sizeof where, "fmi2DoStep over [%.17g, %.17g] s failed", t, t + h);
+        /* an exception marked fmi_rejected (the slave refused the step before changing
+         * anything: an input it cannot take) leaves the instance in stepComplete */
+        PyObject *type, *val, *tb;
+        PyErr_Fetch(&type, &val, &tb);
+        PyErr_NormalizeException(&type, &val, &tb);
+        PyObject *flag = val ? PyObject_GetAttrString(val, "fmi_rejected") : NULL;
+        int rejected = flag && PyObject_IsTrue(flag) == 1;
+        Py_XDECREF(flag);
+        PyErr_Clear();
+        PyErr_Restore(type, val, tb);
+        char where[200];
+        snprintf(where, sizeof where, rejected ? "fmi2DoStep over [%.17g, %.17g] s refused (nothing changed)"
+                                               : "fmi2DoStep over [%.17g, %.17g] s failed", t, t + h);
         st = fail(c, where);
-        c->st = ST_ERROR;
+        if (!rejected) c->st = ST_ERROR;
     } else if (!PyBool_Check(r)) {
         st = drain_log(c);
         st = logf_(c, fmi2Error, "fmi2DoStep over [%.17g, %.17g] s: slave.do_step returned a %s, expected True or "
