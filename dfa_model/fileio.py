@@ -25,8 +25,8 @@ def check_writable(name: str, path, formats: tuple[str, ...] | None = None) -> P
     if str(path) == "" or p.name == "":
         raise OutputError(f"{name}: expected a file name, got {str(path)!r}")
     if formats is not None and p.suffix.lower().lstrip(".") not in formats:
-        raise OutputError(f"{name}: {str(p)!r} has no known image suffix; use one of "
-                          f"{', '.join('.' + f for f in formats)}")
+        has = f"has the suffix {p.suffix!r}" if p.suffix else "has no suffix"
+        raise OutputError(f"{name}: {str(p)!r} {has}; expected one of {', '.join('.' + f for f in formats)}")
     if p.is_dir():
         raise OutputError(f"{name}: {str(p)!r} is a folder, expected a file name")
     folder = p.parent if str(p.parent) else Path(".")

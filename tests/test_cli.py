@@ -96,7 +96,7 @@ SIM = ["simulate", "--preset", "vshape-table1", "--voltage", "6000", "--duration
     (["--out", "/nonexistent-folder/x.csv"], "--out: folder '/nonexistent-folder' does not exist"),
     (["--out", "."], "--out: expected a file name, got '.'"),
     (["--out", ".."], "--out: '..' is a folder"),
-    (["--plot", "run.svgz"], "--plot: 'run.svgz' has no known image suffix"),
+    (["--plot", "run.svgz"], "--plot: 'run.svgz' has the suffix '.svgz'; expected one of .png"),
     (["--out", "/proc/dfa.csv"], "--out: cannot create a file in folder '/proc'"),
     (["--set", "N=inf"], "N: got inf, expected an integer"),
     (["--set", "N=nan"], "N: got nan"),
