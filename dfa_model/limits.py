@@ -7,6 +7,8 @@ README, 'Reliability', lists them.
 """
 from __future__ import annotations
 
+import math
+
 MAX_VOLTAGE = 1e6           # V: far above any DFA (their films break down at tens of kV)
 MAX_FORCE = 1e6             # N: load magnitude
 MAX_DURATION = 1e7          # s: total protocol length
@@ -24,6 +26,18 @@ TAU_MECH_MIN = 1e-11
 
 class LimitError(ValueError):
     """A request beyond a stated limit (the message names the flag or field and the limit)."""
+
+
+def finite_within(name: str, value, bound: float) -> float:
+    """`value` as a float, or ValueError naming `name` unless it is finite with
+    |value| <= bound."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: got {value!r}, expected a number") from None
+    if not (math.isfinite(v) and abs(v) <= bound):
+        raise ValueError(f"{name}: got {value!r}, expected a finite number of magnitude <= {bound:g}")
+    return v
 
 
 def check_rows(name: str, rows: int, columns: int, hint: str = "") -> None:

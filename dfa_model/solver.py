@@ -12,7 +12,7 @@ from .dielectrics import PhysicsWarning
 from .equations import K, NREC
 from .integrator import MAX_STEPS, NONFINITE, OK, OUTPUT_FULL, STEP_UNDERFLOW, integrate
 from .model import DFAModel
-from .parameters import ParameterError, Parameters
+from .parameters import ParameterError, Parameters, check_value
 from .results import Result
 from .waveforms import Load, Protocol, WaveformError, merge
 
@@ -75,7 +75,7 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
     t, V0, Vs, F0, Fs = merge(protocol.piecewise(), load.piecewise(T))
     mat = model.with_k(load.k_load)
     y = _initial(model, x0, y0)
-    V_before = _finite_in("V_before", V_before, limits.MAX_VOLTAGE)
+    V_before = limits.finite_within("V_before", V_before, limits.MAX_VOLTAGE)
     max_steps = _count("max_steps", max_steps)
     if len(t) - 1 > max_steps:
         raise limits.LimitError(f"max_steps: the inputs have {len(t) - 1:,} segments (switches, samples), each at "
@@ -115,18 +115,9 @@ def _hint(status, model, max_steps):
             text += f", or damp the mechanics (m = {p.m:g} kg, b = {p.b:g} N s/m: a light, weakly damped mass rings fast)"
         return text
     if status == OUTPUT_FULL:
-        return f" ({limits.MAX_OUTPUT_BYTES / 2 ** 30:g} GiB): sample the output (t_eval, --dt) or shorten the run"
+        return (f" ({limits.MAX_OUTPUT_SAMPLES:,} samples or {limits.MAX_OUTPUT_BYTES / 2 ** 30:g} GiB): sample the "
+                f"output (t_eval, --dt) or shorten the run")
     return f": check rtol = {p.rtol:g}, the resistivity law and the inputs (a smaller rtol can help)"
-
-
-def _finite_in(name, value, bound):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: got {value!r}, expected a number") from None
-    if not (math.isfinite(v) and abs(v) <= bound):
-        raise ValueError(f"{name}: got {value!r}, expected a finite number of magnitude <= {bound:g}")
-    return v
 
 
 def _count(name, value):
@@ -136,7 +127,6 @@ def _count(name, value):
 
 
 def _rtol(value):
-    from .parameters import check_value
     check_value("rtol", value)
     return float(value)
 
@@ -145,7 +135,7 @@ def _initial(model, x0, y0):
     """The initial state: uncharged at rest at x0, or y0 (checked)."""
     x_e = model.kin.x_e
     if y0 is None:
-        x0 = _finite_in("x0", x0, math.inf)
+        x0 = limits.finite_within("x0", x0, math.inf)
         if not 0.0 <= x0 <= x_e:
             raise ValueError(f"x0: got {x0:g} m, expected a stroke with 0 <= x0 <= x_e = {x_e:.6g} m")
         return model.initial_state(x0)

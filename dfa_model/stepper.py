@@ -12,13 +12,12 @@ import math
 
 import numpy as np
 
-from .equations import R_ANG, R_C, R_FE, R_I, R_LZ, R_U, R_V, R_X
+from . import limits
+from .equations import K, R_ANG, R_C, R_FE, R_I, R_LZ, R_U, R_V, R_X
 from .integrator import GAMMA, I_HN, I_STOP, I_STUCK, OK, integrate
 from .model import DFAModel
 from .parameters import Parameters
-from . import limits
-from .equations import K
-from .solver import _STATUS, SolverError, _finite_in, check_mechanics, zip_force_per_volt2
+from .solver import _STATUS, SolverError, check_mechanics, zip_force_per_volt2
 
 class InputRejected(ValueError):
     """A step refused before anything changed (a bad step size or input, or mechanics
@@ -103,8 +102,8 @@ class Stepper:
         zipping) held constant; a change from the previous inputs is a jump at t."""
         try:
             _finite_positive("dt", dt)
-            V = _finite_in("voltage", voltage, limits.MAX_VOLTAGE)
-            F = _finite_in("force", force, limits.MAX_FORCE)
+            V = limits.finite_within("voltage", voltage, limits.MAX_VOLTAGE)
+            F = limits.finite_within("force", force, limits.MAX_FORCE)
             if (V, F) != self._checked:
                 check_mechanics(self.model, self.model.mat[K], abs(V), F, self._c_zip)
                 self._checked = (V, F)

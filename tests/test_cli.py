@@ -139,7 +139,7 @@ def test_negative_numbers_are_values(capsys):
 def test_solver_failure_keeps_the_partial_result(tmp_path, capsys):
     out = tmp_path / "run.csv"
     rc, _, err = run(SIM + ["--max-steps", "15", "--out", str(out)], capsys)
-    assert rc == 2 and "step limit" in err and f"the partial result (up to t = " in err and str(out) in err
+    assert rc == 2 and "step limit" in err and "the partial result (up to t = " in err and str(out) in err
     text = out.read_text()
     assert "# PARTIAL:" in text and len(text.splitlines()) > 4
 
