@@ -39,8 +39,8 @@ OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE, OUTPUT_FULL = 0, 1, 2, 3, 4
 # carried controller state `ist` (see make_workspace): Jacobian valid, step of the stored
 # factorization, Newton contraction estimate, next step size, stuck index, f0 valid, the
 # load at the end of the last call (its voltage is the caller's V_prev), and the stop the
-# stroke rests on (-1: x = 0, +1: x = x_e, 0: free)
-I_JOK, I_HFACT, I_ETA, I_HN, I_STUCK, I_F0OK, I_F, I_STOP = 0, 1, 2, 3, 4, 5, 6, 7
+# stroke rests on (-1: x = 0, +1: x = x_e, 0: free) with the net zipping force there
+I_JOK, I_HFACT, I_ETA, I_HN, I_STUCK, I_F0OK, I_F, I_STOP, I_GHOLD = 0, 1, 2, 3, 4, 5, 6, 7, 8
 # impact energy slot of the energy accumulators (equations.NPOW)
 E_IMPACT = 6
 # a stop event (impact, release) is located by at most this many retried steps
@@ -56,7 +56,7 @@ def make_workspace(n, ne, nb, h0):
     ws = (np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, nb)), np.zeros((2, 2)),
           np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3)), np.zeros(ne), np.zeros(ne),
           np.zeros(ne), np.zeros((2, 2)), np.zeros(n))
-    ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0, 0.0])
+    ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0, 0.0, 0.0])
     return ws, ist
 
 
@@ -171,10 +171,10 @@ def _attracting(cfg, geo, mat, law, lawp, V, F, y, xk, eps, tmp, ytmp, kin, work
 
 
 @njit(cache=True)
-def _push(cfg, geo, mat, law, lawp, V, F, y, tmp, kin, work, tri, jbe):
+def _push(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, work, tri, jbe):
     """Net force towards zipping at state y, -(F + k x + F_e) (N), and its scale
-    |F| + |k x| + |F_e| (for a tolerance)."""
-    Fe = rhs_any(cfg, geo, mat, law, lawp, V, F, y, tmp, kin, work, tri, jbe)
+    |F| + |k x| + |F_e| (for a tolerance); ydot receives f(y)."""
+    Fe = rhs_any(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, work, tri, jbe)
     return -(F + mat[K] * y[0] + Fe), abs(F) + abs(mat[K] * y[0]) + abs(Fe)
 
 
@@ -291,7 +291,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     stop = int(ist[I_STOP])       # the stop the stroke rests on (held), or 0
     x_e = mat[X_E]
     tol_x = rtol * scale[0]       # how far past a stop a step may end without a retry
-    g_hold = 0.0                  # net zipping force at y while held
+    g_hold = ist[I_GHOLD]         # net zipping force at y while held
     ev_tries = 0
     # a stop event being located: bracket [t (held/short side), ev_t (past the event)],
     # regula falsi with the Illinois rule (an end kept twice in a row has its value halved)
@@ -332,9 +332,6 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         if smooth:
             for i in range(n):
                 f0[i] = fkeep[i]
-            if stop != 0:             # held through the call boundary: the force for a release
-                g_hold = _push(cfg, geo, mat, law, lawp, V0, F0, y, tmp, kin, work, tri, jbe)[0]
-                nfev += 1
         else:
             rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
             nfev += 1
@@ -558,9 +555,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     if want_energy:
                         E[E_IMPACT] += 0.5 * mat[MASS] * z2[1] * z2[1]
                     z2[1] = 0.0
-                g2 = _push(cfg, geo, mat, law, lawp, V2, F2, z2, tmp, kin, work, tri, jbe)[0]
-                rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
-                nfev += 2
+                g2 = _push(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)[0]
+                nfev += 1
                 stop = side if _held(side, g2) else 0
                 if stop != 0:
                     for i in range(nbord):
@@ -636,6 +632,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     ist[I_HN] = hn
     ist[I_STUCK] = stuck
     ist[I_STOP] = stop
+    ist[I_GHOLD] = g_hold
     stats = np.array([nsteps, nrej, nfev, njac, status, t], dtype=np.float64)
     return (rec[:nrec].copy(), states[:nrec].copy() if store_states else states[:0].copy(), stats, y,
             trace[:ntr].copy())

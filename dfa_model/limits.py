@@ -28,7 +28,11 @@ class LimitError(ValueError):
     """A request beyond a stated limit (the message names the flag or field and the limit)."""
 
 
-def finite_within(name: str, value, bound: float) -> float:
+# the magnitude bound and unit of each kind of input signal
+SIGNALS = {"voltage": (MAX_VOLTAGE, "V"), "force": (MAX_FORCE, "N")}
+
+
+def finite_within(name: str, value, bound: float, unit: str = "") -> float:
     """`value` as a float, or ValueError naming `name` unless it is finite with
     |value| <= bound."""
     try:
@@ -36,8 +40,14 @@ def finite_within(name: str, value, bound: float) -> float:
     except (TypeError, ValueError):
         raise ValueError(f"{name}: got {value!r}, expected a number") from None
     if not (math.isfinite(v) and abs(v) <= bound):
-        raise ValueError(f"{name}: got {value!r}, expected a finite number of magnitude <= {bound:g}")
+        raise ValueError(f"{name}: got {value!r}, expected a finite number of magnitude <= {bound:g}"
+                         + (f" {unit}" if unit else ""))
     return v
+
+
+def signal_value(kind: str, value) -> float:
+    """A value of input signal `kind` ('voltage', 'force') within its bound (SIGNALS)."""
+    return finite_within(kind, value, *SIGNALS[kind])
 
 
 def check_rows(name: str, rows: int, columns: int, hint: str = "") -> None:

@@ -102,8 +102,8 @@ class Stepper:
         zipping) held constant; a change from the previous inputs is a jump at t."""
         try:
             _finite_positive("dt", dt)
-            V = limits.finite_within("voltage", voltage, limits.MAX_VOLTAGE)
-            F = limits.finite_within("force", force, limits.MAX_FORCE)
+            V = limits.signal_value("voltage", voltage)
+            F = limits.signal_value("force", force)
             if (V, F) != self._checked:
                 check_mechanics(self.model, self.model.mat[K], abs(V), F, self._c_zip)
                 self._checked = (V, F)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .limits import MAX_DURATION, MAX_FORCE, MAX_VOLTAGE, check_segments
+from .limits import MAX_DURATION, SIGNALS, check_segments, signal_value
 
 
 class WaveformError(ValueError):
@@ -34,17 +34,12 @@ def _finite(name, value, lo=None, lo_incl=True, hi=None):
     return value
 
 
-# the bound on the magnitude of each kind of signal (limits.py)
-MAGNITUDE = {"voltage": (MAX_VOLTAGE, "V"), "force": (MAX_FORCE, "N")}
-
-
 def _level(name, value):
     """A finite signal value within the stated magnitude limit of its kind."""
-    value = _finite(name, value)
-    bound, unit = MAGNITUDE[name]
-    if abs(value) > bound:
-        raise WaveformError(f"{name}: got {value:g} {unit}, expected a magnitude <= {bound:g} {unit}")
-    return value
+    try:
+        return signal_value(name, value)
+    except ValueError as exc:
+        raise WaveformError(str(exc)) from None
 
 
 @dataclass
@@ -193,7 +188,7 @@ class Sampled(Waveform):
             bad = int(np.nonzero(~(np.isfinite(self.times) & np.isfinite(self.values)))[0][0])
             raise WaveformError(f"{self.name}: samples must be finite numbers (sample {bad}: time "
                                 f"{self.times[bad]!r}, value {self.values[bad]!r})")
-        bound, unit = MAGNITUDE.get(self.name, (np.inf, ""))
+        bound, unit = SIGNALS.get(self.name, (np.inf, ""))
         if np.any(np.abs(self.values) > bound):
             bad = int(np.argmax(np.abs(self.values)))
             raise WaveformError(f"{self.name}: sample {bad} is {self.values[bad]:g} {unit}, expected a magnitude "

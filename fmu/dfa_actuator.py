@@ -64,7 +64,7 @@ INPUT_INFO = {
 }
 # [min, max] of the inputs (dfa_model.limits): build.py writes them into the model
 # description, the binary refuses a value outside them in fmi2SetReal
-RANGES = {"voltage": (-limits.MAX_VOLTAGE, limits.MAX_VOLTAGE), "force": (-limits.MAX_FORCE, limits.MAX_FORCE)}
+RANGES = {kind: (-bound, bound) for kind, (bound, _) in limits.SIGNALS.items()}
 # every parameter variable, in registration order (the FMU state holds them by name)
 PARAM_KEYS = ("layout", *P.SPEC, "land_on_communication_points", *EXTRA)
 STATE_KEYS = ("params", "inputs", "experiment", "stepper")
