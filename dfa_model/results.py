@@ -17,39 +17,9 @@ CSV_COLUMNS = ["time", "voltage", "force", "stroke", "current", "velocity", "zip
                "zipping_angle", "electrostatic_force", "capacitance", "stored_energy"]
 
 
-class Result:
-    """Time series (SI units) and metrics of one run.
-
-    Arrays: t, x (stroke), v, lz, theta (zipping angle, rad), Fe (zipping force, N),
-    I (device current, A), C (capacitance at fixed interface charge, F), U (stored
-    electrostatic energy, J), V, F, E_max (largest |E_l|, V/m). `states` holds the
-    element states at each output when requested (`charges=True`).
-
-    `trace` is the stroke as the solver computed it (every accepted step, see
-    trace.StrokeTrace): the metrics use it, not the output samples, so they do not
-    depend on `t_eval`."""
-
-    def __init__(self, model, protocol, load, rec, states, stats, wall_time, y_end, energy=False,
-                 y0=None, V_before=0.0, trace=None):
-        self.model = model
-        self.params = model.params
-        self.protocol = protocol
-        self.load = load
-        self.rec = rec
-        self.states = states
-        self.y_end = y_end
-        self.y0, self.V_before = y0, V_before
-        self.wall_time = wall_time
-        self.n_steps, self.n_rejected, self.n_rhs, self.n_jac = (int(v) for v in stats[:4])
-        self.has_energy = energy
-        self.t, self.x, self.v = rec[:, R_T], rec[:, R_X], rec[:, R_V]
-        self.lz, self.theta, self.Fe = rec[:, R_LZ], rec[:, R_ANG], rec[:, R_FE]
-        self.I, self.C, self.U = rec[:, R_I], rec[:, R_C], rec[:, R_U]
-        self.V, self.F, self.E_max, self.Q = rec[:, R_VOLT], rec[:, R_F], rec[:, R_EMAX], rec[:, R_Q]
-        if trace is not None and len(trace) >= 1:
-            self.trace = StrokeTrace.from_solver(trace, 0.0, model.kin.x_e)
-        else:
-            self.trace = StrokeTrace.from_samples(self.t, self.x)
+class StrokeMetrics:
+    """The metrics of a stroke record over a protocol, shared by the full model's
+    Result and the surrogates' results: needs `protocol` and `trace`."""
 
     # ---------------------------------------------------------------- windows
     def stage(self, label):
@@ -102,6 +72,41 @@ class Result:
     def drift(self, period, label="hold", skip=1):
         """Slope of the per-period mean stroke (m/s) over stage `label`."""
         return metrics.drift(self.trace, period, *self._window(label), skip)
+
+
+class Result(StrokeMetrics):
+    """Time series (SI units) and metrics of one run.
+
+    Arrays: t, x (stroke), v, lz, theta (zipping angle, rad), Fe (zipping force, N),
+    I (device current, A), C (capacitance at fixed interface charge, F), U (stored
+    electrostatic energy, J), V, F, E_max (largest |E_l|, V/m). `states` holds the
+    element states at each output when requested (`charges=True`).
+
+    `trace` is the stroke as the solver computed it (every accepted step, see
+    trace.StrokeTrace): the metrics use it, not the output samples, so they do not
+    depend on `t_eval`."""
+
+    def __init__(self, model, protocol, load, rec, states, stats, wall_time, y_end, energy=False,
+                 y0=None, V_before=0.0, trace=None):
+        self.model = model
+        self.params = model.params
+        self.protocol = protocol
+        self.load = load
+        self.rec = rec
+        self.states = states
+        self.y_end = y_end
+        self.y0, self.V_before = y0, V_before
+        self.wall_time = wall_time
+        self.n_steps, self.n_rejected, self.n_rhs, self.n_jac = (int(v) for v in stats[:4])
+        self.has_energy = energy
+        self.t, self.x, self.v = rec[:, R_T], rec[:, R_X], rec[:, R_V]
+        self.lz, self.theta, self.Fe = rec[:, R_LZ], rec[:, R_ANG], rec[:, R_FE]
+        self.I, self.C, self.U = rec[:, R_I], rec[:, R_C], rec[:, R_U]
+        self.V, self.F, self.E_max, self.Q = rec[:, R_VOLT], rec[:, R_F], rec[:, R_EMAX], rec[:, R_Q]
+        if trace is not None and len(trace) >= 1:
+            self.trace = StrokeTrace.from_solver(trace, 0.0, model.kin.x_e)
+        else:
+            self.trace = StrokeTrace.from_samples(self.t, self.x)
 
     def summary(self) -> dict:
         return {"static_stroke": self.static_stroke, "final_stroke": self.final_stroke,

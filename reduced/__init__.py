@@ -1,0 +1,14 @@
+"""reduced: low-order surrogates of the full DFA model (python-control objects), their
+fitting against the full model, full-vs-reduced comparison, and the design of
+polarity-inversion drive schemes.
+
+    import reduced
+    s = reduced.fit(preset("vshape-table1"), family="charge")
+    s.system()                       # control.NonlinearIOSystem
+    s.simulate(Protocol.reset_then_hold(6000, 20), load=5.0).unzipping_speed
+    s.save("act.surrogate.json"); reduced.load("act.surrogate.json")
+"""
+from .families import FAMILIES, build, charge, lumped
+from .surrogate import Surrogate, SurrogateError, SurrogateResult, load
+
+__all__ = ["FAMILIES", "build", "charge", "lumped", "Surrogate", "SurrogateError", "SurrogateResult", "load"]

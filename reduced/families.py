@@ -1,0 +1,76 @@
+"""The surrogate families: where each one's maps come from.
+
+lumped   The literature's control-oriented circuit: the zipped region as a film capacitor
+         (C_f, leakage R_f) in series with a liquid capacitor (C_l(x), R_l(x)), both
+         proportional to the zipped length l_z(x); the interface charge per zipped area
+         is the state; the force is Eq. (10)'s lumped co-energy with the liquid layer's
+         field reduced by that charge:  F_e = (w/2) dl_z/dx c_f c_l/(c_f+c_l) (V - q/c_f)^2.
+         Every number from geometry and materials: no fitting (refine with fit()).
+charge   Reduced charge dynamics of the full model. At a frozen stroke the full model's
+         charge equations are linear and every zipped element has the same pole, so the
+         charge of material the front has crossed reduces exactly to one state q_z;
+         the force and current are the full model's own static maps with that charge
+         (frozen.uniform_charge_tables). The material the front has just uncovered has
+         charged more slowly than q_z: a front-layer deficit q_d (kappa, ell, fitted by
+         fit()) carries that.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from dfa_model import DFAModel
+
+from . import frozen
+from .kernel import A_Q, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB
+from .surrogate import Surrogate
+
+FAMILIES = ("lumped", "charge")
+
+
+def lumped(params, n_grid: int = 161) -> Surrogate:
+    """The lumped equivalent circuit from geometry and materials (no fitting)."""
+    model = frozen.as_model(params)
+    p = model.params
+    c_f, c_l = p.eps_f / (2.0 * p.t_f), p.eps_l / p.t_lz           # F/m^2 of zipped area
+    g_f, g_l = 1.0 / (2.0 * p.t_f * p.rho_f), 1.0 / (p.rho_l * p.t_lz)  # S/m^2
+    cs = c_f + c_l
+    xg = np.linspace(0.0, model.kin.x_e, n_grid)
+    lz, dlz = model.kin.lz(xg), model.kin.dlz_dx(xg)
+    tab = np.zeros((n_grid, NTAB))
+    c0 = 0.5 * p.w * dlz * c_f * c_l / cs
+    tab[:, C0], tab[:, C1], tab[:, C2] = c0, -2.0 * c0 / c_f, c0 / c_f ** 2
+    a, b = -(g_f + g_l) / cs, (c_f * g_l - c_l * g_f) / cs
+    tab[:, A_Q], tab[:, B_V] = a, b
+    # source current: the film's charge c_f (V - v_l) on the zipped area, its change
+    # (motion and charging), and the film's leakage g_f (V - v_l); V - v_l = (c_l V + q)/cs
+    area, darea = p.w * lz, p.w * dlz
+    tab[:, I0] = area * (c_f / cs * b + g_f * c_l / cs)
+    tab[:, I1] = area * (c_f / cs * a + g_f / cs)
+    tab[:, J0], tab[:, J1] = darea * c_f * c_l / cs, darea * c_f / cs
+    tab[:, DLZ] = dlz
+    info = {"source": "geometry and materials (lumped circuit)", "tau": -1.0 / a}
+    return Surrogate("lumped", p, xg, tab, 0.0, 1.0, info)
+
+
+def charge(params, n_grid: int = 161, kappa: float = 0.0, ell: float | None = None) -> Surrogate:
+    """Reduced charge dynamics read off the full model (no fitting yet: kappa = 0)."""
+    model = frozen.as_model(params)
+    xg, tab = frozen.uniform_charge_tables(model, n_grid)
+    if ell is None:
+        ell = default_ell(model)
+    info = {"source": "full model's frozen-stroke maps (reduced charge dynamics)", "tau": -1.0 / tab[0, A_Q]}
+    return Surrogate("charge", model.params, xg, tab, kappa, ell, info)
+
+
+def default_ell(model: DFAModel) -> float:
+    """Front-layer length (m): the zipped liquid's thickness u0 = t_lz + 2 eps_l t_f/eps_f
+    over the gap's opening slope at the front, k = 2a/(l - l_z), for a half-zipped V."""
+    p = model.params
+    u0 = p.t_lz + 2.0 * p.eps_l * p.t_f / p.eps_f
+    return float(u0 / 0.3)
+
+
+def build(params, family: str, **kw) -> Surrogate:
+    if family not in FAMILIES:
+        raise ValueError(f"family: got {family!r}, expected one of {', '.join(FAMILIES)}")
+    return lumped(params, **kw) if family == "lumped" else charge(params, **kw)

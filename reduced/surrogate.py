@@ -1,0 +1,280 @@
+"""A surrogate: a few states, tabulated maps of the stroke, a fast path and python-control.
+
+All families share one structure (the states are named in `state_names`):
+
+    x      stroke (m)                           b dx/dt = F_e - F - k x   (m = 0)
+    v      stroke velocity (m/s), only if m > 0 m dv/dt = F_e - F - k x - b v
+    q_z    interface charge of zipped material (C/m^2)    dq_z/dt = a(x) q_z + b(x) V
+    q_d    front-layer charge deficit (C/m^2), only if kappa != 0
+                                                dq_d/dt = kappa dq_z/dt - |dl_z/dt| / ell q_d
+    F_e    = c0(x) V^2 + c1(x) V (q_z - q_d) + c2(x) (q_z - q_d)^2
+    current = i0(x) V + i1(x) q_z + dx/dt (j0(x) V + j1(x) q_z)   (no capacitive spike at a jump)
+
+with stops at x = 0 and x = x_e. The families differ in where the maps come from (see
+families.py). Inputs `voltage`, `force`; outputs `stroke`, `current`.
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+
+from dfa_model import limits, metrics
+from dfa_model.parameters import Parameters
+from dfa_model.results import StrokeMetrics
+from dfa_model.trace import StrokeTrace
+from dfa_model.waveforms import Load, Protocol, merge
+
+from . import kernel
+from .kernel import NTAB, NY, P_AVG, P_B, P_ELL, P_K, P_KAPPA, P_M, P_XE
+
+FORMAT = "dfa-surrogate"
+VERSION = 1
+
+
+class SurrogateError(RuntimeError):
+    """The surrogate's integration stopped early."""
+
+
+class SurrogateResult(StrokeMetrics):
+    """Time series of a surrogate run (every accepted step) and the full model's metrics
+    (StrokeMetrics: unzipping speed, static stroke, ripple, drift...)."""
+
+    def __init__(self, surrogate, protocol, rec, wall_time, steps):
+        self.surrogate = surrogate
+        self.protocol = protocol
+        self.rec = rec
+        self.wall_time = wall_time
+        self.n_steps = steps
+        R = kernel
+        self.t, self.x, self.v = rec[:, R.R_T], rec[:, R.R_X], rec[:, R.R_V]
+        self.q_z, self.q_d = rec[:, R.R_Z1], rec[:, R.R_Z2]
+        self.V, self.F, self.I, self.Fe = rec[:, R.R_VOLT], rec[:, R.R_F], rec[:, R.R_I], rec[:, R.R_FE]
+        self.trace = StrokeTrace.from_samples(self.t, self.x)
+
+    def summary(self) -> dict:
+        return {"static_stroke": self.static_stroke, "final_stroke": self.final_stroke,
+                "unzipping_speed": self.unzipping_speed, "wall_time": self.wall_time, "steps": self.n_steps}
+
+
+class Surrogate:
+    """A fitted low-order model of one actuator (see the module docstring).
+
+    family   'lumped' or 'charge'
+    params   the actuator (dfa_model Parameters) the maps were computed for
+    x_grid, tables  the maps of the stroke (kernel.py columns)
+    kappa, ell      the front-layer deficit (kappa = 0: no deficit state)
+    info     provenance: how the maps were built and fitted, training errors
+    """
+
+    def __init__(self, family, params: Parameters, x_grid, tables, kappa=0.0, ell=1.0, info=None):
+        self.family = family
+        self.params = params
+        self.x_grid = np.ascontiguousarray(x_grid, dtype=float)
+        self.tables = np.ascontiguousarray(tables, dtype=float)
+        if self.tables.shape != (len(self.x_grid), NTAB):
+            raise ValueError(f"tables: expected shape ({len(self.x_grid)}, {NTAB}), got {self.tables.shape}")
+        self.x_e = float(self.x_grid[-1])
+        self.kappa = float(kappa)
+        self.ell = float(ell)
+        self.info = dict(info or {})
+
+    # ------------------------------------------------------------------ structure
+    @property
+    def has_mass(self) -> bool:
+        return self.params.m > 0
+
+    @property
+    def has_deficit(self) -> bool:
+        return self.kappa != 0.0
+
+    @property
+    def state_names(self) -> list[str]:
+        return ["x"] + (["v"] if self.has_mass else []) + ["q_z"] + (["q_d"] if self.has_deficit else [])
+
+    @property
+    def n_states(self) -> int:
+        return len(self.state_names)
+
+    def _index(self):
+        """Positions of the named states in the kernel's 6-vector [x, v, z1, z2, V, F]."""
+        return [{"x": 0, "v": 1, "q_z": 2, "q_d": 3}[n] for n in self.state_names]
+
+    def par(self, averaged=False, k_extra=0.0) -> np.ndarray:
+        p = self.params
+        out = np.zeros(kernel.NPAR)
+        out[P_XE], out[P_B], out[P_M], out[P_K] = self.x_e, p.b, p.m, p.k + k_extra
+        out[P_KAPPA], out[P_ELL], out[P_AVG] = self.kappa, self.ell, 1.0 if averaged else 0.0
+        return out
+
+    def q_scale(self) -> float:
+        p = self.params
+        return p.eps_l * 1000.0 / (p.t_lz + 2.0 * p.eps_l * p.t_f / p.eps_f)
+
+    def scales(self) -> np.ndarray:
+        qs = self.q_scale() * 10.0
+        return np.array([self.x_e, self.x_e * 100.0, qs, qs, 1.0, 1.0])
+
+    # ------------------------------------------------------------------ fast path
+    def simulate(self, protocol, load=0.0, duration=None, *, rtol=1e-4, y0=None, max_steps=limits.MAX_STEPS,
+                 averaged=None) -> SurrogateResult:
+        """Run a protocol on the compiled path (kernel.py). `protocol` and `load` as in
+        dfa_model.simulate. `y0`: initial state by name ({'x': ..., 'q_z': ...}) or a
+        6-vector; default uncharged at rest at x = 0. `averaged`: (mean V, mean V^2) per
+        segment for the cycle-averaged form (averaged.py), else None."""
+        if not isinstance(protocol, Protocol):
+            if duration is None:
+                raise ValueError("duration: required when the protocol is a plain voltage or waveform")
+            protocol = Protocol.dc(protocol, duration) if isinstance(protocol, (int, float)) else \
+                Protocol.single(protocol, duration)
+        if not isinstance(load, Load):
+            load = Load(load)
+        if not (isinstance(rtol, (int, float)) and 1e-10 <= rtol <= 0.1):
+            raise ValueError(f"rtol: got {rtol!r}, expected a number in [1e-10, 0.1]")
+        t0 = time.perf_counter()
+        tb, v0, vs, f0, fs = merge(protocol.piecewise(), load.piecewise(protocol.duration))
+        w2 = v0 * v0 if averaged is None else np.asarray(averaged, float)
+        rec, steps = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps, averaged is not None,
+                               load.k_load)
+        return SurrogateResult(self, protocol, rec, time.perf_counter() - t0, steps)
+
+    def _y0(self, y0):
+        y = np.zeros(NY)
+        if y0 is None:
+            return y
+        if isinstance(y0, dict):
+            pos = {"x": 0, "v": 1, "q_z": 2, "q_d": 3}
+            for k, v in y0.items():
+                if k not in pos:
+                    raise ValueError(f"y0: unknown state {k!r}; states are {', '.join(pos)}")
+                y[pos[k]] = float(v)
+        else:
+            y[:] = np.asarray(y0, float)[:NY]
+        if not np.all(np.isfinite(y)):
+            raise ValueError("y0: must be finite")
+        if not (0.0 <= y[0] <= self.x_e):
+            raise ValueError(f"y0: stroke x = {y[0]:g} m outside [0, x_e = {self.x_e:g}] m")
+        return y
+
+    def _run(self, tb, v0, vs, f0, fs, w2, y, rtol, max_steps, averaged, k_extra=0.0):
+        par = self.par(averaged, k_extra)
+        cap = min(64 + 40 * len(v0), 4_000_000)
+        h0 = min(1e-4, float(tb[-1] - tb[0]))
+        while True:
+            rec = np.empty((cap, kernel.NREC))
+            status, rows, steps, y_end = kernel.integrate(tb, v0, vs, f0, fs, w2, y, self.tables, par,
+                                                          self.scales(), rtol, h0, rec, max_steps)
+            if status == kernel.FULL and cap < 16_000_000:
+                cap *= 4
+                continue
+            break
+        if status != kernel.OK:
+            why = {kernel.FULL: "the output buffer is full", kernel.MAX_STEPS: f"the step limit ({max_steps}) was reached",
+                   kernel.NONFINITE: "the solution became non-finite"}[status]
+            raise SurrogateError(f"surrogate integration stopped at t = {rec[rows - 1, 0]:g} s: {why}")
+        self.y_end = y_end
+        return rec[:rows].copy(), steps
+
+    # ------------------------------------------------------------------ python-control
+    def _eval(self, xs, V, F, W=None):
+        y = np.zeros(NY)
+        y[self._index()] = xs
+        y[4], y[5] = V, F
+        ydot = np.zeros(NY)
+        Fe, I = kernel.evaluate(y, V * V if W is None else W, self.tables, self.par(), ydot, np.empty(NTAB),
+                                kernel.AUTO)
+        return ydot[self._index()], I
+
+    def system(self, name=None):
+        """This surrogate as a control.NonlinearIOSystem (inputs voltage, force; outputs
+        stroke, current; states `state_names`)."""
+        import control
+
+        def upd(t, xs, u, params):
+            return self._eval(xs, u[0], u[1])[0]
+
+        def out(t, xs, u, params):
+            return np.array([min(max(xs[0], 0.0), self.x_e), self._eval(xs, u[0], u[1])[1]])
+
+        return control.nlsys(upd, out, inputs=["voltage", "force"], outputs=["stroke", "current"],
+                             states=self.state_names, name=name or f"dfa_{self.family}")
+
+    def equilibrium(self, V, F, q_z=0.0, q_d=0.0):
+        """The stroke at rest under DC V and load F with the charges held at (q_z, q_d):
+        the state vector (by state_names) where the mechanics balance. Zips from x = 0
+        (the first balance), like dfa_model.statics.equilibrium_stroke."""
+        def net(x):
+            y = np.zeros(NY)
+            y[0], y[2], y[3], y[4], y[5] = x, q_z, q_d, V, F
+            row = np.empty(NTAB)
+            kernel._row(self.tables, self.x_e, x, row)
+            qf = q_z - q_d
+            return row[0] * V * V + row[1] * V * qf + row[2] * qf * qf - F - self.params.k * x
+        xs = np.linspace(0.0, self.x_e, 401)
+        vals = np.array([net(x) for x in xs])
+        x_eq = self.x_e
+        if vals[0] <= 0:
+            x_eq = 0.0
+        else:
+            idx = np.nonzero(vals <= 0)[0]
+            if len(idx):
+                from scipy.optimize import brentq
+                i = idx[0]
+                x_eq = brentq(net, xs[i - 1], xs[i], xtol=1e-14)
+        st = {"x": x_eq, "v": 0.0, "q_z": q_z, "q_d": q_d}
+        return np.array([st[n] for n in self.state_names])
+
+    def linearize(self, V, F, q_z=0.0, q_d=0.0):
+        """control.StateSpace of the surrogate linearized at the stroke where the
+        mechanics balance under (V, F) with the charges (q_z, q_d) - an equilibrium of
+        the mechanics, around which the charges drift slowly (their poles are in A)."""
+        import control
+        xs = self.equilibrium(V, F, q_z, q_d)
+        return control.linearize(self.system(), xs, [V, F])
+
+    # ------------------------------------------------------------------ files
+    def to_dict(self) -> dict:
+        return {"format": FORMAT, "version": VERSION, "family": self.family, "params_toml": self.params.to_toml(),
+                "x_grid": self.x_grid.tolist(), "tables": self.tables.tolist(), "kappa": self.kappa,
+                "ell": self.ell, "states": self.state_names, "info": self.info}
+
+    def save(self, path) -> None:
+        """Write the surrogate as JSON (loads back with reduced.load)."""
+        from dfa_model.fileio import write_text_atomic
+        write_text_atomic(path, json.dumps(self.to_dict()))
+
+    def __repr__(self):
+        return f"<Surrogate {self.family}: {self.n_states} states {self.state_names}, layout {self.params.layout}>"
+
+
+def from_dict(d: dict) -> Surrogate:
+    import tomllib
+
+    from dfa_model.parameters import from_dict as params_from_dict
+    if not isinstance(d, dict) or d.get("format") != FORMAT:
+        raise ValueError(f"not a surrogate file (expected \"format\": \"{FORMAT}\")")
+    if d.get("version") != VERSION:
+        raise ValueError(f"surrogate file version {d.get('version')!r}; this toolkit reads version {VERSION}")
+    try:
+        s = Surrogate(d["family"], params_from_dict(tomllib.loads(d["params_toml"]), "surrogate file"), d["x_grid"], d["tables"], d["kappa"], d["ell"],
+                      d.get("info"))
+    except KeyError as exc:
+        raise ValueError(f"surrogate file: missing key {exc.args[0]!r}") from None
+    if not (np.all(np.isfinite(s.tables)) and np.all(np.diff(s.x_grid) > 0) and math.isfinite(s.kappa)
+            and s.ell > 0):
+        raise ValueError("surrogate file: tables, grid or deficit parameters are corrupt")
+    return s
+
+
+def load(path) -> Surrogate:
+    """Read a surrogate written by Surrogate.save / `dfa reduce`."""
+    try:
+        with open(path) as fh:
+            d = json.load(fh)
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read ({exc.strerror})") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not JSON ({exc.msg} at line {exc.lineno})") from None
+    return from_dict(d)
