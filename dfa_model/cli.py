@@ -267,7 +267,16 @@ def build_parser():
     _add_params_flags(pb, "default: vshape-table1")
     pb.add_argument("--out", metavar="FILE.fmu", default="DFAActuator.fmu")
     pb.set_defaults(func=cmd_fmu_build)
+    _plugins(sub)
     return ap
+
+
+def _plugins(sub) -> None:
+    """Subcommands of packages built on this one (reduce, compare, design from
+    reduced/), registered under the entry-point group 'dfa.commands'."""
+    from importlib.metadata import entry_points
+    for ep in entry_points(group="dfa.commands"):
+        ep.load()(sub)
 
 
 def main(argv=None):
@@ -278,7 +287,8 @@ def main(argv=None):
         args = ap.parse_args(argv)
         if not getattr(args, "command", None):
             ap.print_help()
-            raise CLIError("command: required, one of params, simulate, sweep, fmu (dfa COMMAND --help for more)")
+            raise CLIError("command: required, one of params, simulate, sweep, fmu, reduce, compare, design "
+                           "(dfa COMMAND --help for more)")
         if getattr(args, "dt", None) == 0:
             args.dt = None
         with warnings.catch_warnings():

@@ -105,25 +105,28 @@ def run_case(case: Case) -> dict:
     return row
 
 
-def run(cases, executor=None, max_workers=None, progress=True) -> list[dict]:
+def run(cases, executor=None, max_workers=None, progress=True, fn=run_case, desc="sweep") -> list[dict]:
     """Run cases through `executor` (default: local processes). Rows come back in case
-    order. With `progress`, a tqdm bar on stderr."""
+    order. With `progress`, a tqdm bar on stderr. `fn` (a picklable module-level
+    function of one case returning a dict, never raising) replaces run_case: the
+    surrogate fitting uses it to bring back whole stroke records."""
     own = executor is None
     if own:
         executor = ProcessPoolExecutor(max_workers=max_workers or os.cpu_count() or 1)
     try:
-        futures = {executor.submit(run_case, c): i for i, c in enumerate(cases)}
+        futures = {executor.submit(fn, c): i for i, c in enumerate(cases)}
         rows = [None] * len(cases)
         it = as_completed(futures)
         if progress:
             from tqdm import tqdm
-            it = tqdm(it, total=len(futures), desc="sweep", unit="run")
+            it = tqdm(it, total=len(futures), desc=desc, unit="run")
         for fut in it:
             i = futures[fut]
             try:
                 rows[i] = fut.result()
             except Exception as exc:   # the worker itself died (e.g. killed): say which case
-                rows[i] = {"label": cases[i].label, **cases[i].varied, "status": "error",
+                rows[i] = {"label": getattr(cases[i], "label", str(i)), **getattr(cases[i], "varied", {}),
+                           "status": "error",
                            "error": f"worker failed: {type(exc).__name__}: {exc}"}
         return rows
     finally:

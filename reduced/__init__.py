@@ -8,7 +8,10 @@ polarity-inversion drive schemes.
     s.simulate(Protocol.reset_then_hold(6000, 20), load=5.0).unzipping_speed
     s.save("act.surrogate.json"); reduced.load("act.surrogate.json")
 """
+from .compare import compare
 from .families import FAMILIES, build, charge, lumped
+from .fitting import Condition, Envelope, evaluate, fit
 from .surrogate import Surrogate, SurrogateError, SurrogateResult, load
 
-__all__ = ["FAMILIES", "build", "charge", "lumped", "Surrogate", "SurrogateError", "SurrogateResult", "load"]
+__all__ = ["FAMILIES", "build", "charge", "lumped", "compare", "Condition", "Envelope", "evaluate", "fit",
+           "Surrogate", "SurrogateError", "SurrogateResult", "load"]

@@ -226,13 +226,23 @@ class Surrogate:
         st = {"x": x_eq, "v": 0.0, "q_z": q_z, "q_d": q_d}
         return np.array([st[n] for n in self.state_names])
 
-    def linearize(self, V, F, q_z=0.0, q_d=0.0):
+    def linearize(self, V, F, q_z=0.0, q_d=0.0, freeze_charge=False):
         """control.StateSpace of the surrogate linearized at the stroke where the
-        mechanics balance under (V, F) with the charges (q_z, q_d) - an equilibrium of
-        the mechanics, around which the charges drift slowly (their poles are in A)."""
+        mechanics balance under (V, F) with the charges (q_z, q_d). That is an
+        equilibrium of the mechanics only: the charges keep drifting (their slow poles
+        are in A), and a DC voltage's true equilibrium is the fully charged, unzipped
+        actuator. `freeze_charge=True` keeps only the mechanical states: the
+        quasi-static plant a stroke controller sees between mechanics (ms) and charge
+        (tens of s), whose DC gain is dx/dV and dx/dF at fixed charge."""
         import control
         xs = self.equilibrium(V, F, q_z, q_d)
-        return control.linearize(self.system(), xs, [V, F])
+        lin = control.linearize(self.system(), xs, [V, F])
+        if not freeze_charge:
+            return lin
+        keep = [i for i, n in enumerate(self.state_names) if n in ("x", "v")]
+        return control.ss(lin.A[np.ix_(keep, keep)], lin.B[keep, :], lin.C[:, keep], lin.D,
+                          inputs=["voltage", "force"], outputs=["stroke", "current"],
+                          states=[self.state_names[i] for i in keep], name=f"{lin.name}_mech")
 
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict:

@@ -1,0 +1,91 @@
+"""`dfa reduce`, `dfa compare`, `dfa design`: the surrogates' subcommands.
+
+They plug into the `dfa` command through the entry-point group `dfa.commands`
+(pyproject.toml), so dfa_model never imports this package.
+"""
+from __future__ import annotations
+
+import json
+import sys
+
+from dfa_model import cli as base
+from dfa_model.fileio import check_writable
+
+
+def register(sub) -> None:
+    pr = sub.add_parser("reduce", help="fit a low-order surrogate to the full model; write it to a file")
+    base._add_params_flags(pr)
+    pr.add_argument("--family", choices=["charge", "lumped"], default="charge",
+                    help="charge: reduced charge dynamics (default); lumped: the equivalent circuit")
+    pr.add_argument("--out", metavar="MODEL.json", required=True)
+    pr.add_argument("--workers", type=base._number(1, 1024, integer=True), help="local processes (default: all cores)")
+    pr.add_argument("--scheduler", metavar="ADDRESS", help="run the full model on a dask.distributed scheduler")
+    pr.add_argument("--quiet", action="store_true", help="no progress bar")
+    pr.set_defaults(func=cmd_reduce)
+
+    pc = sub.add_parser("compare", help="run the full model and a surrogate on one protocol; errors and speed-up")
+    pc.add_argument("model", metavar="MODEL", help="a surrogate file written by dfa reduce")
+    base._add_protocol_flags(pc)
+    pc.add_argument("--plot", metavar="FILE.png", help="both strokes, the error below")
+    pc.add_argument("--json", action="store_true", help="print the comparison as one JSON object")
+    pc.set_defaults(func=cmd_compare)
+
+    try:     # TEMPORARY until design.py lands
+        from .design import add_design_parser
+    except ImportError:
+        return
+    add_design_parser(sub)
+
+
+def cmd_reduce(args) -> int:
+    from . import fitting
+    p = base._params(args)
+    check_writable("--out", args.out, ("json",))
+    executor = base._dask_executor(args.scheduler) if args.scheduler else None
+    if executor is None and args.workers:
+        from concurrent.futures import ProcessPoolExecutor
+        executor = ProcessPoolExecutor(max_workers=args.workers)
+    s = fitting.fit(p, family=args.family, executor=executor, progress=not args.quiet)
+    s.save(args.out)
+    rows = s.info.get("heldout", [])
+    print(f"{s.family} surrogate, {s.n_states} states {s.state_names}; held-out conditions:", file=sys.stderr)
+    for r in rows:
+        se = r["speed_error"]
+        print(f"  {r['condition']:42s} RMS error {r['relative_rms_error'] * 100:6.2f} % of range, unzipping speed "
+              f"error {'-' if se is None else f'{se * 100:.2f} %'}", file=sys.stderr)
+    print(f"wrote {args.out}", file=sys.stderr)
+    return 0
+
+
+def _clean(v):
+    return None if (isinstance(v, float) and v != v) else v
+
+
+def cmd_compare(args) -> int:
+    from .compare import KEYS, compare, plot
+    from .surrogate import load
+    if args.duration is None:
+        raise base.CLIError("--duration: required (seconds of the hold stage, after any reset)")
+    s = load(args.model)
+    proto = base._protocol(args)
+    if args.plot:
+        check_writable("--plot", args.plot, base.PLOT_FORMATS)
+    row = compare(s, proto, args.force)
+    if args.plot:
+        plot(row, args.plot)
+    out = {k: _clean(row[k]) for k in KEYS}
+    if args.json:
+        print(json.dumps(out))
+        return 0
+
+    def mm(v, unit=1e3, fmt=".4f"):
+        return "-" if v is None else format(v * unit, fmt)
+    print(f"stroke RMS error   {mm(out['stroke_rms_error'], 1e6, '.2f')} um = "
+          f"{mm(out['relative_rms_error'], 100, '.2f')} % of the stroke range ({mm(out['stroke_range'])} mm)")
+    print(f"unzipping speed    full {mm(out['unzipping_speed_full'], 1e6)} um/s, reduced "
+          f"{mm(out['unzipping_speed_reduced'], 1e6)} um/s")
+    print(f"ripple             full {mm(out['ripple_full'])} mm, reduced {mm(out['ripple_reduced'])} mm")
+    print(f"drift (lost)       full {mm(out['drift_full'])} mm, reduced {mm(out['drift_reduced'])} mm")
+    print(f"wall time          full {out['wall_time_full'] * 1e3:.2f} ms, reduced "
+          f"{out['wall_time_reduced'] * 1e3:.3f} ms: {out['speedup']:.0f}x ({out['states']} states)")
+    return 0

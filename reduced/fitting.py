@@ -1,0 +1,178 @@
+"""Fitting a surrogate against the full model over an operating envelope.
+
+    s = reduced.fit(preset("vshape-table1"), family="charge")          # local processes
+    s = reduced.fit(p, family="charge", executor=client.get_executor())  # a Dask cluster
+
+The full model's training responses run through dfa_model.sweep's executor (progress
+bar on stderr). The surrogate's maps stay as built (families.py); only its few free
+numbers are fitted, by least squares on the stroke records (RMS error relative to each
+run's stroke range) and the unzipping speeds:
+  charge   kappa, ell of the front-layer deficit
+  lumped   a force scale and a charge-rate scale (the refinement of the circuit's
+           geometry-and-materials values)
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from dfa_model import PhysicsWarning, sweep
+from dfa_model.parameters import Parameters
+from dfa_model.waveforms import build_protocol
+
+from . import families
+from .compare import compare, rms_difference, speed_error
+from .kernel import A_Q, B_V, C0, C1, C2
+
+MIN_RANGE = 20e-6   # m: runs whose stroke moves less carry no information on the fit
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One protocol: the CLI's simulate settings (voltage V, force N, waveform, ...)."""
+
+    voltage: float
+    force: float
+    waveform: str = "dc"
+    frequency: float | None = None
+    duty: float | None = None
+    reset: float = 0.0
+    duration: float = 20.0
+
+    @property
+    def label(self) -> str:
+        s = f"{self.voltage / 1e3:g} kV, {self.force:g} N, {self.waveform}"
+        if self.frequency:
+            s += f" {self.frequency:g} Hz duty {self.duty:g}"
+        if self.reset:
+            s += f", reset {self.reset:g} s"
+        return s
+
+    def protocol(self):
+        return build_protocol(self.voltage, self.duration, self.waveform, self.frequency, self.duty, self.reset)
+
+
+@dataclass
+class Envelope:
+    """The operating envelope: training and held-out conditions (defaults span the
+    issue's envelope: V 4-10 kV, F 1-9 N, DC, charge reset + DC, bipolar 0.2-50 Hz with
+    duty 0.3-0.7, unipolar pulse trains). Held-out conditions are never used in fitting."""
+
+    training: list = field(default_factory=lambda: [
+        Condition(4000, 1), Condition(7000, 5), Condition(10000, 9),
+        Condition(5000, 3, reset=3.0), Condition(8000, 7, reset=3.0), Condition(10000, 2, reset=3.0),
+        Condition(6000, 4, "bipolar", 0.2, 0.5, duration=30.0), Condition(9000, 6, "bipolar", 2.0, 0.3),
+        Condition(5000, 2, "bipolar", 50.0, 0.7), Condition(7000, 3, "unipolar", 1.0, 0.5),
+        Condition(9000, 8, "unipolar", 10.0, 0.6)])
+    heldout: list = field(default_factory=lambda: [
+        Condition(6000, 5, reset=3.0), Condition(4500, 2), Condition(9500, 8, reset=3.0),
+        Condition(7000, 5, "bipolar", 1.0, 0.5), Condition(8000, 3, "bipolar", 10.0, 0.4),
+        Condition(5500, 4, "unipolar", 5.0, 0.5), Condition(6500, 6, "bipolar", 0.5, 0.7, duration=30.0)])
+
+
+@dataclass
+class _Job:
+    label: str
+    params: Parameters
+    condition: Condition
+
+
+def _full_run(job: _Job) -> dict:
+    """One full-model run for the training set (module level: runs in worker processes)."""
+    from dfa_model import simulate
+    row = {"label": job.label}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PhysicsWarning)
+            res = simulate(job.params, job.condition.protocol(), load=float(job.condition.force))
+        res.model = None        # keep the pickle small: the records are what we need
+        row.update(status="ok", result=res)
+    except Exception as exc:    # a case that fails is reported, not fatal
+        row.update(status="error", error=f"{type(exc).__name__}: {exc}")
+    return row
+
+
+def full_runs(params: Parameters, conditions, executor=None, progress=True, desc="full model"):
+    """The full model's results for `conditions` (through sweep.run's executor)."""
+    jobs = [_Job(c.label, params, c) for c in conditions]
+    rows = sweep.run(jobs, executor=executor, progress=progress, fn=_full_run, desc=desc)
+    out = []
+    for c, r in zip(conditions, rows):
+        if r.get("status") != "ok":
+            raise RuntimeError(f"full model failed on {c.label}: {r.get('error')}")
+        res = r["result"]
+        from dfa_model.model import DFAModel
+        res.model = DFAModel(params)
+        out.append(res)
+    return out
+
+
+def _apply(base, family, theta):
+    s = base
+    if family == "charge":
+        s = type(base)(base.family, base.params, base.x_grid, base.tables, theta[0], math.exp(theta[1]), base.info)
+    else:
+        tab = base.tables.copy()
+        tab[:, [C0, C1, C2]] *= theta[0]
+        tab[:, [A_Q, B_V]] *= theta[1]
+        s = type(base)(base.family, base.params, base.x_grid, tab, 0.0, 1.0, base.info)
+    return s
+
+
+def _residuals(s, conditions, fulls):
+    r = []
+    for c, full in zip(conditions, fulls):
+        rng = full.trace.max() - full.trace.min()
+        if rng < MIN_RANGE:
+            continue
+        red = s.simulate(c.protocol(), c.force)
+        r.append(rms_difference(red.trace, full.trace) / rng)
+        us = full.unzipping_speed
+        if us > 0:
+            r.append(0.5 * (red.unzipping_speed / us - 1.0))
+    return np.asarray(r)
+
+
+def fit(params: Parameters, family: str = "charge", envelope: Envelope | None = None, executor=None,
+        progress=True, n_grid: int = 161):
+    """Build the surrogate of `family` for `params`, fit its free numbers to full-model
+    runs over `envelope` (training conditions), and report its errors on the held-out
+    conditions in `info['heldout']`."""
+    from scipy.optimize import least_squares
+    envelope = envelope or Envelope()
+    base = families.build(params, family, n_grid=n_grid)
+    fulls = full_runs(base.params, envelope.training, executor, progress, "training runs")
+    if family == "charge":
+        # start from a deficit that is a fixed share of q_z (a long layer renews slowly)
+        theta0 = np.array([0.05, math.log(1.0)])
+        lo, hi = [-0.5, math.log(1e-5)], [0.9, math.log(100.0)]
+    else:
+        theta0 = np.array([1.0, 1.0])
+        lo, hi = [0.3, 0.1], [3.0, 10.0]
+    before = _residuals(base, envelope.training, fulls)
+    sol = least_squares(lambda th: _residuals(_apply(base, family, th), envelope.training, fulls), theta0,
+                        bounds=(lo, hi), diff_step=1e-3, x_scale=[0.1, 1.0] if family == "charge" else [0.1, 0.1],
+                        max_nfev=60)
+    s = _apply(base, family, sol.x)
+    s.info.update({"fitted": {"theta": sol.x.tolist(), "cost_before": float(0.5 * before @ before),
+                              "cost_after": float(sol.cost), "training": [c.label for c in envelope.training]}})
+    if envelope.heldout:
+        s.info["heldout"] = evaluate(s, envelope.heldout, executor=executor, progress=progress)
+    return s
+
+
+def evaluate(s, conditions, fulls=None, executor=None, progress=True) -> list[dict]:
+    """compare() rows (numbers only) of surrogate `s` on `conditions`."""
+    if fulls is None:
+        fulls = full_runs(s.params, conditions, executor, progress, "held-out runs")
+    rows = []
+    for c, full in zip(conditions, fulls):
+        row = compare(s, c.protocol(), c.force, full_result=full)
+        row = {k: v for k, v in row.items() if k not in ("full", "reduced")}
+        row["condition"] = c.label
+        row["speed_error"] = speed_error(row)
+        rows.append(row)
+    return rows

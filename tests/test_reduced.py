@@ -1,0 +1,177 @@
+"""Surrogates (reduced/): accuracy on held-out conditions, python-control objects,
+linearization against the full model, physics limits, files and the CLI."""
+import json
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+import reduced
+from dfa_model import PhysicsWarning, Protocol, preset, simulate
+from dfa_model.waveforms import Bipolar
+from reduced import frozen
+from reduced.fitting import Condition, Envelope
+
+warnings.simplefilter("ignore", PhysicsWarning)
+
+SMALL = Envelope(training=[Condition(5000, 2), Condition(8000, 6, reset=3.0), Condition(7000, 4, "bipolar", 0.5, 0.5),
+                           Condition(10000, 8)],
+                 heldout=[Condition(6000, 5, reset=3.0), Condition(9000, 3), Condition(7500, 5, "bipolar", 1.0, 0.6)])
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    """The default envelope's fit for the V-shaped baseline (held-out rows in info)."""
+    return reduced.fit(preset("vshape-table1"), family="charge", progress=False)
+
+
+def _check_heldout(rows, states_max=4):
+    rows = [r for r in rows if r["stroke_range"] >= 20e-6]     # runs that zip at all
+    assert rows
+    for r in rows:
+        assert r["states"] <= states_max
+        assert r["relative_rms_error"] <= 0.02, r
+        # held on the electrode end, the speed hinges on the release time: a stated
+        # breakdown (README), checked for the RMS goal only
+        if r["speed_error"] is not None and r["unzipping_speed_full"] > 1e-6 and not r["front_at_end"]:
+            assert r["speed_error"] <= 0.05, r
+        if r["ripple_full"] is not None and abs(r["drift_full"]) > 20e-6:
+            assert abs(r["drift_reduced"] / r["drift_full"] - 1) <= 0.10, r
+
+
+def test_heldout_accuracy_vshape(fitted):
+    rows = fitted.info["heldout"]
+    assert {r["condition"] for r in rows}.isdisjoint(fitted.info["fitted"]["training"])
+    _check_heldout(rows)
+    assert fitted.info["fitted"]["cost_after"] < fitted.info["fitted"]["cost_before"]
+
+
+@pytest.mark.parametrize("case", ["peano-fig10", "theta15", "theta45"])
+def test_heldout_accuracy_other_actuators(case):
+    p = preset(case) if case.startswith("peano") else preset("vshape-table1").with_theta0(float(case[5:]))
+    s = reduced.fit(p, family="charge", envelope=SMALL, progress=False)
+    _check_heldout(s.info["heldout"])
+
+
+def test_lumped_circuit_is_the_baseline(fitted):
+    """From geometry alone the circuit's time constant is the full model's zipped one;
+    its force (Eq. 10, zipped region only) is what makes it worse than the reduced
+    charge model on held-out runs."""
+    p = preset("vshape-table1")
+    lump = reduced.lumped(p)
+    a_full, b_full = frozen.zipped_rates(frozen.as_model(p))
+    assert lump.info["tau"] == pytest.approx(-1 / a_full, rel=1e-9)
+    assert lump.tables[0, 4] == pytest.approx(b_full, rel=1e-9)
+    rows = reduced.evaluate(lump, [Condition(6000, 5, reset=3.0)], progress=False)
+    ours = [r for r in fitted.info["heldout"] if r["condition"] == rows[0]["condition"]][0]
+    assert rows[0]["speed_error"] > ours["speed_error"]
+
+
+def test_python_control_system_matches_fast_path(fitted):
+    import control
+    sys_ = fitted.system()
+    assert isinstance(sys_, control.NonlinearIOSystem)
+    assert sys_.input_labels == ["voltage", "force"] and sys_.output_labels == ["stroke", "current"]
+    t = np.linspace(0, 2, 401)
+    r = control.input_output_response(sys_, t, [np.full_like(t, 6000.0), np.full_like(t, 5.0)],
+                                      X0=np.zeros(fitted.n_states), solve_ivp_method="LSODA")
+    fast = fitted.simulate(Protocol.dc(6000.0, 2.0), 5.0)
+    assert r.outputs[0][-1] == pytest.approx(fast.final_stroke, rel=5e-3)
+
+
+def test_linearization_dc_gain_matches_full_model(fitted):
+    import control
+    V, F, dV = 6000.0, 5.0, 20.0
+    lin = fitted.linearize(V, F, freeze_charge=True)
+    assert isinstance(lin, control.StateSpace)
+    assert isinstance(fitted.linearize(V, F), control.StateSpace)
+    x = [simulate(fitted.params, Protocol.dc(v, 0.2), load=F).final_stroke for v in (V, V + dV)]
+    assert control.dcgain(lin)[0, 0] == pytest.approx((x[1] - x[0]) / dV, rel=0.03)
+
+
+def test_matched_dielectrics_hold_the_stroke():
+    """tau_l = tau_f: no interface charge builds up, the stroke does not decay."""
+    p = preset("vshape-table1")
+    p = p.replace(rho_l=p.rho_f * p.eps_f / p.eps_l)
+    r = reduced.charge(p).simulate(Protocol.dc(6000.0, 30.0), 5.0)
+    assert abs(r.q_z).max() < 1e-12
+    assert r.final_stroke == pytest.approx(r.trace(1.0), rel=1e-6)
+
+
+def test_polarity_symmetry():
+    s = reduced.charge(preset("vshape-table1"), kappa=0.05, ell=1.0)
+    # the physics is odd in (V, q); the forward-difference Jacobian is not mirrored, so
+    # the two runs agree to the integration tolerance (tight here)
+    a = s.simulate(Protocol.dc(7000.0, 10.0), 4.0, rtol=1e-8)
+    b = s.simulate(Protocol.dc(-7000.0, 10.0), 4.0, rtol=1e-8)
+    t = np.linspace(0, 10, 101)
+    assert np.allclose(a.trace(t), b.trace(t), rtol=1e-6, atol=1e-12)
+    assert np.allclose(a.q_z[-1], -b.q_z[-1], rtol=1e-6)
+
+
+def test_stops_are_events():
+    """A bipolar drive with dead time drops the stroke to 0 and re-zips: the trace stays
+    in [0, x_e] and lands on 0 where the full model does."""
+    p = preset("vshape-table1")
+    s = reduced.charge(p)
+    proto = Protocol.single(Bipolar(5000, 1.0, 0.5), 4.0)
+    r = s.simulate(proto, 3.0)
+    f = simulate(p, proto, load=3.0)
+    assert r.x.min() >= 0 and r.x.max() <= s.x_e
+    t = np.array([0.375, 0.875, 1.375])     # in the dead time, after the fall
+    assert np.all(f.trace(t) == 0) and np.all(r.trace(t) == 0)
+    assert r.n_steps < 5000
+
+
+def test_save_load_roundtrip(fitted, tmp_path):
+    path = tmp_path / "m.json"
+    fitted.save(path)
+    back = reduced.load(path)
+    assert back.state_names == fitted.state_names
+    proto = Protocol.reset_then_hold(6000, 5)
+    assert back.simulate(proto, 5.0).final_stroke == fitted.simulate(proto, 5.0).final_stroke
+    (tmp_path / "bad.json").write_text("{")
+    with pytest.raises(ValueError, match="not JSON"):
+        reduced.load(tmp_path / "bad.json")
+    (tmp_path / "other.json").write_text('{"format": "x"}')
+    with pytest.raises(ValueError, match="not a surrogate file"):
+        reduced.load(tmp_path / "other.json")
+
+
+def test_bad_input_errors():
+    s = reduced.charge(preset("vshape-table1"))
+    with pytest.raises(ValueError, match="rtol"):
+        s.simulate(Protocol.dc(6000, 1), 5.0, rtol=1.0)
+    with pytest.raises(ValueError, match="y0"):
+        s.simulate(Protocol.dc(6000, 1), 5.0, y0={"x": 1.0})
+    with pytest.raises(ValueError, match="family"):
+        reduced.build(preset("vshape-table1"), "pod")
+    with pytest.raises(ValueError, match="law"):
+        reduced.charge(preset("vshape-table1").replace(law="linear"))
+
+
+def test_works_without_slycot(monkeypatch):
+    monkeypatch.setitem(sys.modules, "slycot", None)
+    from reduced.balance import balanced_truncation
+    A, B = frozen.electrical_lti(frozen.as_model(preset("vshape-table1")), 0.001)
+    C = frozen.force_sensitivity(frozen.as_model(preset("vshape-table1")), 0.001)
+    bt = balanced_truncation(A, B, C, order=3)
+    assert bt.method == "scipy" and bt.A.shape == (3, 3)
+    assert bt.hsv[3] / bt.hsv[0] < 0.05     # three balanced states carry the frozen-stroke response
+
+
+def test_cli_compare_json(fitted, tmp_path, capsys):
+    from dfa_model.cli import main
+    path = tmp_path / "m.json"
+    fitted.save(path)
+    rc = main(["compare", str(path), "--voltage", "6000", "--force", "5", "--waveform", "bipolar", "--frequency",
+               "2", "--duty", "0.5", "--duration", "10", "--json", "--plot", str(tmp_path / "c.png")])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert list(out) == list(reduced.compare.__globals__["KEYS"])
+    assert out["relative_rms_error"] < 0.02 and out["speedup"] > 1 and out["ripple_full"] > 0
+    assert (tmp_path / "c.png").stat().st_size > 1000
+    rc = main(["compare", str(tmp_path / "missing.json"), "--voltage", "6000", "--duration", "1"])
+    assert rc == 2
+    assert "cannot read" in capsys.readouterr().err
