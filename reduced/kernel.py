@@ -171,6 +171,8 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
     cols = np.empty(NY, dtype=np.int64)
     steps = 0
     mode = FREE
+    age = 0
+    fresh = True
     h = h0
     y[4] = v0[0]
     y[5] = f0[0]
@@ -204,6 +206,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
         evaluate(y, W, tab, par, F0, rw, FREE)
         F0[4] = vs[seg]
         F0[5] = fs[seg]
+        fresh = True
         while t < t_end - 1e-13 * max(abs(t_end), 1.0):
             if steps >= max_steps:
                 return MAX_STEPS, row, steps, y
@@ -214,11 +217,21 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
                 last = True
             # Jacobian by forward differences (only the columns that can be nonzero); a
             # stroke resting on a stop is frozen for the step
+            mode_old = mode
             mode = on_stop(y, W, tab, par, rw, ft)
+            if mode != mode_old:
+                fresh = True
             if mode == HELD:
                 F0[0] = 0.0
                 F0[1] = 0.0
-            for c in range(nc):
+            # a W-method keeps its order with an old Jacobian: refresh it every 3rd step,
+            # after a rejection, at a segment start and on or off a stop
+            if mode == HELD or age >= 3 or fresh:
+                age = 0
+                fresh = False
+            else:
+                age += 1
+            for c in range(nc if age == 0 else 0):
                 j = cols[c]
                 dj = 1e-7 * max(abs(y[j]), sc[j])
                 if j == 0 and y[0] >= xe:
@@ -285,6 +298,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
                     continue
                 hs *= max(0.1, 0.9 / err ** (1.0 / 3.0))
                 h = hs
+                fresh = True
                 last = False
                 if steps >= max_steps:
                     return MAX_STEPS, row, steps, y

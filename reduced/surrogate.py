@@ -134,7 +134,13 @@ class Surrogate:
         if not (isinstance(rtol, (int, float)) and 1e-10 <= rtol <= 0.1):
             raise ValueError(f"rtol: got {rtol!r}, expected a number in [1e-10, 0.1]")
         t0 = time.perf_counter()
-        tb, v0, vs, f0, fs = merge(protocol.piecewise(), load.piecewise(protocol.duration))
+        pw = protocol.piecewise()
+        if load.k_load == 0.0 and not callable(load.F) and isinstance(load.F, float):
+            # a constant load: no breakpoints to merge
+            tb, v0, vs = pw.t, pw.v0, pw.slope
+            f0, fs = np.full(len(v0), load.F), np.zeros(len(v0))
+        else:
+            tb, v0, vs, f0, fs = merge(pw, load.piecewise(protocol.duration))
         w2 = v0 * v0 if averaged is None else np.asarray(averaged, float)
         rec, steps = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps, averaged is not None,
                                load.k_load)

@@ -1,0 +1,82 @@
+"""Surrogate speed against the full model, timed in the same run (medians, one process):
+
+  (1) the standard protocol (Table 1, 6 kV, 5 N, 3 s charge reset at 30 Hz, 20 s DC
+      hold): full model vs the fitted reduced-charge surrogate's compiled path;
+  (2) an hour of 30 Hz polarity inversion (6 kV, 5 N, duty 0.5, ideal drive): the full
+      model stepping through all 216 000 inversions vs the cycle-averaged form.
+
+Goals (issue 9): (1) >= 20x, (2) >= 1000x. Also prints the errors of each pair.
+
+    python benchmarks/bench_reduced.py [--repeats N] [--hour-repeats N]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+import warnings
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+from dfa_model import PhysicsWarning, Protocol, preset, simulate  # noqa: E402
+
+import reduced  # noqa: E402
+from reduced import averaged  # noqa: E402
+from reduced.compare import rms_difference  # noqa: E402
+
+warnings.simplefilter("ignore", PhysicsWarning)
+
+
+def median_time(fn, n):
+    ts = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return statistics.median(ts)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--repeats", type=int, default=30)
+    ap.add_argument("--hour-repeats", type=int, default=3)
+    a = ap.parse_args()
+    p = preset("vshape-table1")
+    t0 = time.perf_counter()
+    s = reduced.fit(p, family="charge", progress=False)
+    print(f"fit (training + held-out full runs, least squares): {time.perf_counter() - t0:.1f} s; "
+          f"{s.n_states} states {s.state_names}")
+
+    proto = Protocol.reset_then_hold(6000.0, 20.0)
+    full = simulate(p, proto, load=5.0)
+    red = s.simulate(proto, 5.0)
+    # both timed through the metric users read (the trace and the window included)
+    t_full = median_time(lambda: simulate(p, proto, load=5.0).unzipping_speed, a.repeats)
+    t_red = median_time(lambda: s.simulate(proto, 5.0).unzipping_speed, a.repeats * 10)
+    rng = full.trace.max() - full.trace.min()
+    print("\n(1) standard protocol, simulate() + unzipping_speed, median")
+    print(f"    full model  {t_full * 1e3:8.3f} ms")
+    print(f"    surrogate   {t_red * 1e3:8.3f} ms   speed-up {t_full / t_red:6.1f}x  (goal >= 20x)")
+    print(f"    stroke RMS error {rms_difference(red.trace, full.trace) / rng * 100:.2f} % of range, unzipping "
+          f"speed {full.unzipping_speed * 1e6:.3f} vs {red.unzipping_speed * 1e6:.3f} um/s")
+
+    V, F, f, duty, H = 6000.0, 5.0, 30.0, 0.5, 3600.0
+    xs = averaged.static_stroke(p, V, F)
+    fr = []
+
+    def run_full():
+        fr.append(averaged.simulate_full(p, V, F, f, duty, H, x_static=xs))
+    t_hfull = median_time(run_full, a.hour_repeats)
+    avg = averaged.simulate_averaged(s, V, F, f, duty, H, x_static=xs)
+    t_havg = median_time(lambda: averaged.simulate_averaged(s, V, F, f, duty, H, x_static=xs), a.repeats)
+    _, rip_f, dr_f = fr[-1]
+    print(f"\n(2) one hour of {f:g} Hz inversion ({int(2 * f * H)} inversions), median")
+    print(f"    full model        {t_hfull:8.3f} s")
+    print(f"    cycle-averaged    {t_havg * 1e3:8.3f} ms   speed-up {t_hfull / t_havg:8.0f}x  (goal >= 1000x)")
+    print(f"    drift (stroke lost vs static)  full {dr_f * 1e6:.2f} um, averaged {avg.drift * 1e6:.2f} um; "
+          f"ripple full {rip_f * 1e6:.3f} um, averaged {avg.ripple * 1e6:.3f} um")
+
+
+if __name__ == "__main__":
+    main()
