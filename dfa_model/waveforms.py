@@ -72,8 +72,10 @@ class Piecewise:
 
 
 def merge(a: Piecewise, b: Piecewise):
-    """Common breakpoints of two piecewise signals on the same span."""
-    t = np.union1d(a.t, b.t)
+    """Common breakpoints of two piecewise signals on the same span. A constant b over
+    a's span (a constant load, the common case) adds no breakpoints and is not looked up."""
+    const_b = len(b.v0) == 1 and b.slope[0] == 0.0 and b.t[0] <= a.t[0] and b.t[-1] >= a.t[-1]
+    t = np.unique(a.t) if const_b else np.union1d(a.t, b.t)
     t = t[(t >= a.t[0]) & (t <= a.t[-1])]
     # drop breakpoints closer than 1e-13 s (float noise of periodic grids)
     keep = np.concatenate([[True], np.diff(t) > 1e-13])
@@ -84,6 +86,9 @@ def merge(a: Piecewise, b: Piecewise):
     mid = 0.5 * (t[:-1] + t[1:])
     out = []
     for sig in (a, b):
+        if sig is b and const_b:
+            out.append((np.full(len(mid), b.v0[0]), np.zeros(len(mid))))
+            continue
         i = np.clip(np.searchsorted(sig.t, mid, side="right") - 1, 0, len(sig.v0) - 1)
         v0 = sig.v0[i] + sig.slope[i] * (t[:-1] - sig.t[i])
         out.append((v0, sig.slope[i]))

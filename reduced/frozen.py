@@ -97,7 +97,7 @@ def _current(model: DFAModel, x, V, q, xdot):
     p = model.params
     y = state(model, x, q, xdot)
     Fe = model.electrostatic_force(y, V)
-    F = Fe - p.k * x - (p.b * xdot if p.m == 0 else p.b * xdot)
+    F = Fe - p.k * x - p.b * xdot     # with a mass the velocity is the state y[1]; F then only sets dv/dt
     return model.diagnostics(y, V, F)[0][R_I]
 
 

@@ -7,9 +7,10 @@ grid over [0, x_e] and interpolated linearly.
 
 The state handed to the integrator is y = [x, v, z1, z2, V, F]: the inputs ride along as
 states with constant slopes on each input segment, so ramps (a finite slew rate) stay
-exact and the system is autonomous. Steps are ROS2 (Verwer et al. 1999: two-stage,
-L-stable, order 2 for any Jacobian approximation), restarted at every input breakpoint
-(the switches are events), with a finite-difference Jacobian (6 x 6).
+exact and the system is autonomous. Steps are the Rosenbrock-W pair of Shampine's
+ode23s (L-stable, order 2, error estimated at order 3, valid with an old Jacobian),
+restarted at every input breakpoint (the switches are events); the stops at 0 and x_e
+are located as events too. The Jacobian is by forward differences.
 """
 from __future__ import annotations
 
@@ -105,6 +106,12 @@ def on_stop(y, W, tab, par, rw, tmp):
     return FREE
 
 
+@njit(cache=True, inline="always")
+def _record(rec, row, t, y, I, Fe):
+    rec[row, R_T], rec[row, R_X], rec[row, R_V], rec[row, R_Z1], rec[row, R_Z2] = t, y[0], y[1], y[2], y[3]
+    rec[row, R_VOLT], rec[row, R_F], rec[row, R_I], rec[row, R_FE] = y[4], y[5], I, Fe
+
+
 @njit(cache=True)
 def _lu(M, piv, n):
     """LU factorization with partial pivoting of the n x n M, in place."""
@@ -177,8 +184,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
     y[4] = v0[0]
     y[5] = f0[0]
     Fe, I = evaluate(y, w2[0], tab, par, F0, rw, AUTO)
-    rec[0, R_T], rec[0, R_X], rec[0, R_V], rec[0, R_Z1], rec[0, R_Z2] = tb[0], y[0], y[1], y[2], y[3]
-    rec[0, R_VOLT], rec[0, R_F], rec[0, R_I], rec[0, R_FE] = y[4], y[5], I, Fe
+    _record(rec, 0, tb[0], y, I, Fe)
     row = 1
     for seg in range(len(v0)):
         t = tb[seg]
@@ -269,7 +275,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
                 for i in range(NY):
                     k2[i] += k1[i]
                     yt[i] = y[i] + hs * k2[i]
-                evaluate(yt, W, tab, par, F2, rw, mode)
+                Fe2, I2 = evaluate(yt, W, tab, par, F2, rw, mode)
                 F2[4] = vs[seg]
                 F2[5] = fs[seg]
                 for i in range(NY):
@@ -329,9 +335,11 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
             else:
                 for i in range(NY):
                     F0[i] = F2[i]       # first same as last
-                Fe, I = evaluate(y, W, tab, par, ft, rw, AUTO)
-            rec[row, R_T], rec[row, R_X], rec[row, R_V], rec[row, R_Z1], rec[row, R_Z2] = t, y[0], y[1], y[2], y[3]
-            rec[row, R_VOLT], rec[row, R_F], rec[row, R_I], rec[row, R_FE] = y[4], y[5], I, Fe
+                if 0.0 < y[0] < xe:     # inside the stops FREE and AUTO agree: F2's outputs
+                    Fe, I = Fe2, I2
+                else:
+                    Fe, I = evaluate(y, W, tab, par, ft, rw, AUTO)
+            _record(rec, row, t, y, I, Fe)
             row += 1
             h_new = hs * min(5.0, max(0.2, 0.9 / max(err, 1e-12) ** (1.0 / 3.0)))
             h = max(h, h_new) if last else h_new

@@ -134,13 +134,7 @@ class Surrogate:
         if not (isinstance(rtol, (int, float)) and 1e-10 <= rtol <= 0.1):
             raise ValueError(f"rtol: got {rtol!r}, expected a number in [1e-10, 0.1]")
         t0 = time.perf_counter()
-        pw = protocol.piecewise()
-        if load.k_load == 0.0 and not callable(load.F) and isinstance(load.F, float):
-            # a constant load: no breakpoints to merge
-            tb, v0, vs = pw.t, pw.v0, pw.slope
-            f0, fs = np.full(len(v0), load.F), np.zeros(len(v0))
-        else:
-            tb, v0, vs, f0, fs = merge(pw, load.piecewise(protocol.duration))
+        tb, v0, vs, f0, fs = merge(protocol.piecewise(), load.piecewise(protocol.duration))
         w2 = v0 * v0 if averaged is None else np.asarray(averaged, float)
         rec, steps = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps, averaged is not None,
                                load.k_load)
@@ -211,13 +205,12 @@ class Surrogate:
         """The stroke at rest under DC V and load F with the charges held at (q_z, q_d):
         the state vector (by state_names) where the mechanics balance. Zips from x = 0
         (the first balance), like dfa_model.statics.equilibrium_stroke."""
+        par, ydot, rw = self.par(), np.empty(NY), np.empty(NTAB)
+
         def net(x):
-            y = np.zeros(NY)
-            y[0], y[2], y[3], y[4], y[5] = x, q_z, q_d, V, F
-            row = np.empty(NTAB)
-            kernel._row(self.tables, self.x_e, x, row)
-            qf = q_z - q_d
-            return row[0] * V * V + row[1] * V * qf + row[2] * qf * qf - F - self.params.k * x
+            y = np.array([x, 0.0, q_z, q_d, V, F])
+            Fe, _ = kernel.evaluate(y, V * V, self.tables, par, ydot, rw, kernel.FREE)
+            return Fe - F - self.params.k * x
         xs = np.linspace(0.0, self.x_e, 401)
         vals = np.array([net(x) for x in xs])
         x_eq = self.x_e

@@ -11,6 +11,7 @@ import reduced
 from dfa_model import PhysicsWarning, Protocol, preset, simulate
 from dfa_model.waveforms import Bipolar
 from reduced import frozen
+from reduced.compare import KEYS
 from reduced.fitting import Condition, Envelope
 
 warnings.simplefilter("ignore", PhysicsWarning)
@@ -169,7 +170,7 @@ def test_cli_compare_json(fitted, tmp_path, capsys):
                "2", "--duty", "0.5", "--duration", "10", "--json", "--plot", str(tmp_path / "c.png")])
     assert rc == 0
     out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    assert list(out) == list(reduced.compare.__globals__["KEYS"])
+    assert list(out) == list(KEYS)
     assert out["relative_rms_error"] < 0.02 and out["speedup"] > 1 and out["ripple_full"] > 0
     assert (tmp_path / "c.png").stat().st_size > 1000
     rc = main(["compare", str(tmp_path / "missing.json"), "--voltage", "6000", "--duration", "1"])
