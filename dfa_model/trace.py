@@ -13,6 +13,7 @@ mean, minimum, maximum over many windows) take O(pieces + windows) time.
 from __future__ import annotations
 
 import math
+from functools import cached_property
 
 import numpy as np
 
@@ -29,8 +30,8 @@ class StrokeTrace:
         x_start, x_stage, x_end = (np.asarray(v, float) for v in (x_start, x_stage, x_end))
         if t.ndim != 1 or t.size < 1 or x_start.size != t.size - 1:
             raise ValueError("StrokeTrace: need n + 1 times and n pieces")
-        h = np.diff(t)
-        if np.any(h < 0) or not np.all(np.isfinite(t)):
+        h = t[1:] - t[:-1]
+        if (h < 0).any() or not np.isfinite(t).all():
             raise ValueError("StrokeTrace: times must be finite and non-decreasing")
         keep = h > 0                        # zero-length pieces carry no time
         self.t = np.concatenate([t[:1], t[1:][keep]])
@@ -41,17 +42,37 @@ class StrokeTrace:
         self.c0 = a
         self.lo, self.hi = lo, hi
         self.x_last = float(x_end[-1]) if x_end.size else float("nan")
-        # integral from t[0] to each knot
-        self._cum = np.concatenate([[0.0], np.cumsum(self.h * (self.c0 + self.c1 / 2 + self.c2 / 3))])
-        # knot values (piece starts, then the end) and interior vertices, for extrema
-        self._kx = _clip(np.append(self.c0, self.c0[-1] + self.c1[-1] + self.c2[-1]) if self.h.size
-                         else np.array([self.x_last]), lo, hi)
+        # the window queries' tables (_cum, _kx, _vertices) are built on first use: most
+        # results are asked for a value or two (unzipping speed, final stroke) only
+
+    @cached_property
+    def _cum(self):
+        """Integral from t[0] to each knot."""
+        return np.concatenate([[0.0], np.cumsum(self.h * (self.c0 + self.c1 / 2 + self.c2 / 3))])
+
+    @cached_property
+    def _kx(self):
+        """Knot values (piece starts, then the end), for extrema."""
+        return _clip(np.append(self.c0, self.c0[-1] + self.c1[-1] + self.c2[-1]) if self.h.size
+                     else np.array([self.x_last]), self.lo, self.hi)
+
+    @cached_property
+    def _vertices(self):
+        """(times, values) of the pieces' interior vertices, for extrema."""
         with np.errstate(divide="ignore", invalid="ignore"):
             sv = -self.c1 / (2.0 * self.c2)
         inside = (sv > 0) & (sv < 1)          # c2 = 0 gives inf or nan here: never inside
-        self._vt = self.t[:-1][inside] + sv[inside] * self.h[inside]
+        vt = self.t[:-1][inside] + sv[inside] * self.h[inside]
         sv = sv[inside]
-        self._vx = _clip(self.c0[inside] + sv * (self.c1[inside] + sv * self.c2[inside]), lo, hi)
+        return vt, _clip(self.c0[inside] + sv * (self.c1[inside] + sv * self.c2[inside]), self.lo, self.hi)
+
+    @property
+    def _vt(self):
+        return self._vertices[0]
+
+    @property
+    def _vx(self):
+        return self._vertices[1]
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -89,10 +110,21 @@ class StrokeTrace:
 
     def __call__(self, tq):
         """x at times tq (held at the end values outside the span)."""
+        if isinstance(tq, float) and self.h.size:
+            return self._at(tq)
         tq, i, s = self._locate(tq)
         if self.h.size == 0:
             return np.full(np.shape(tq), self.x_last)
         return _clip(self.c0[i] + s * (self.c1[i] + s * self.c2[i]), self.lo, self.hi)
+
+    def _at(self, tq: float):
+        """x at one time: __call__'s arithmetic on scalars, without its array overhead
+        (the metrics' common case)."""
+        t = self.t
+        tq = min(max(tq, t[0]), t[-1])
+        i = min(max(int(t.searchsorted(tq, side="right")) - 1, 0), self.h.size - 1)
+        s = (tq - t[i]) / self.h[i]
+        return np.float64(min(max(self.c0[i] + s * (self.c1[i] + s * self.c2[i]), self.lo), self.hi))
 
     def _primitive(self, tq):
         tq, i, s = self._locate(tq)

@@ -288,10 +288,13 @@ class Protocol:
         return np.concatenate([[0.0], np.cumsum([s.duration for s in self.stages])])
 
     def stage_span(self, label):
-        b = self.boundaries
-        for i, s in enumerate(self.stages):
+        # the running sum is `boundaries` (np.cumsum adds in order), without its arrays:
+        # every result's metrics ask for spans
+        t = 0.0
+        for s in self.stages:
             if s.label == label:
-                return b[i], b[i + 1]
+                return t, t + s.duration
+            t += s.duration
         return None
 
     @property

@@ -1,4 +1,4 @@
-"""`dfa reduce`, `dfa compare`, `dfa design`: the surrogates' subcommands.
+"""`dfa reduce`, `dfa compare`, `dfa design`, `dfa hold`: the surrogates' subcommands.
 
 They plug into the `dfa` command through the entry-point group `dfa.commands`
 (pyproject.toml), so dfa_model never imports this package.
@@ -30,11 +30,10 @@ def register(sub) -> None:
     pc.add_argument("--json", action="store_true", help="print the comparison as one JSON object")
     pc.set_defaults(func=cmd_compare)
 
-    try:     # TEMPORARY until design.py lands
-        from .design import add_design_parser
-    except ImportError:
-        return
+    from .design import add_design_parser
+    from .hold_cli import add_hold_parser
     add_design_parser(sub)
+    add_hold_parser(sub)
 
 
 def cmd_reduce(args) -> int:

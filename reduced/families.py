@@ -10,9 +10,12 @@ charge   Reduced charge dynamics of the full model. At a frozen stroke the full 
          charge equations are linear and every zipped element has the same pole, so the
          charge of material the front has crossed reduces exactly to one state q_z;
          the force and current are the full model's own static maps with that charge
-         (frozen.uniform_charge_tables). The material the front has just uncovered has
-         charged more slowly than q_z: a front-layer deficit q_d (kappa, ell, fitted by
-         fit()) carries that.
+         (frozen.uniform_charge_tables). But the force acts through the few elements
+         at the front, not through zipped material, and they charge at their own
+         rates: a front-layer state q_d = q_z - q_f whose rates (a_f, b_f) match the
+         full model's force-weighted charge at s = 0 and s = infinity
+         (frozen.front_rates), renewed by zipped material over a length ell as the
+         front moves (ell: default_ell, fitted by fit()).
 """
 from __future__ import annotations
 
@@ -21,7 +24,7 @@ import numpy as np
 from dfa_model import DFAModel
 
 from . import frozen
-from .kernel import A_Q, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB
+from .kernel import A_F, A_Q, B_F, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB
 from .surrogate import Surrogate
 
 FAMILIES = ("lumped", "charge")
@@ -41,6 +44,7 @@ def lumped(params, n_grid: int = 161) -> Surrogate:
     tab[:, C0], tab[:, C1], tab[:, C2] = c0, -2.0 * c0 / c_f, c0 / c_f ** 2
     a, b = -(g_f + g_l) / cs, (c_f * g_l - c_l * g_f) / cs
     tab[:, A_Q], tab[:, B_V] = a, b
+    tab[:, A_F], tab[:, B_F] = a, b     # no front layer of its own: no deficit state
     # source current: the film's charge c_f (V - v_l) on the zipped area, its change
     # (motion and charging), and the film's leakage g_f (V - v_l); V - v_l = (c_l V + q)/cs
     area, darea = p.w * lz, p.w * dlz
@@ -49,17 +53,17 @@ def lumped(params, n_grid: int = 161) -> Surrogate:
     tab[:, J0], tab[:, J1] = darea * c_f * c_l / cs, darea * c_f / cs
     tab[:, DLZ] = dlz
     info = {"source": "geometry and materials (lumped circuit)", "tau": -1.0 / a}
-    return Surrogate("lumped", p, xg, tab, 0.0, 1.0, info)
+    return Surrogate("lumped", p, xg, tab, 1.0, info)
 
 
-def charge(params, n_grid: int = 161, kappa: float = 0.0, ell: float | None = None) -> Surrogate:
-    """Reduced charge dynamics read off the full model (no fitting yet: kappa = 0)."""
+def charge(params, n_grid: int = 161, ell: float | None = None) -> Surrogate:
+    """Reduced charge dynamics read off the full model (ell: the default until fitted)."""
     model = frozen.as_model(params)
     xg, tab = frozen.uniform_charge_tables(model, n_grid)
     if ell is None:
         ell = default_ell(model)
     info = {"source": "full model's frozen-stroke maps (reduced charge dynamics)", "tau": -1.0 / tab[0, A_Q]}
-    return Surrogate("charge", model.params, xg, tab, kappa, ell, info)
+    return Surrogate("charge", model.params, xg, tab, ell, info)
 
 
 def default_ell(model: DFAModel) -> float:

@@ -13,9 +13,10 @@ import numpy as np
 from dfa_model import DFAModel, Parameters
 from dfa_model.equations import R_I
 
-from .kernel import A_Q, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB
+from .kernel import A_F, A_Q, B_F, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB
 
 V_REF = 1000.0     # V: evaluation amplitude (the maps are exact quadratic/affine forms)
+N_FRONT = 41       # grid points of the front layer's rates (about 25 ms each)
 
 
 def as_model(params) -> DFAModel:
@@ -91,6 +92,26 @@ def zipped_rates(model: DFAModel):
     return float(a), float(b)
 
 
+def front_rates(model: DFAModel, x: float):
+    """(a_f, b_f) of the front layer at stroke x: the one-pole model b_f / (s - a_f) of
+    the force-weighted charge h^T q / h^T 1 (h: force_sensitivity; zipped material has
+    h = 0, the force acts through the few elements at the front) whose Markov parameter
+    (h^T B / h^T 1: the charging rate, which sets the ripple under fast inversion) and DC
+    gain (-h^T A^-1 B / h^T 1: the steady charge) are the full model's (moment matching
+    at s = infinity and s = 0). Where no element is at the front (h = 0), zipped rates."""
+    A, B = electrical_lti(model, x)
+    h = force_sensitivity(model, x)
+    H = h.sum()
+    a, b = zipped_rates(model)
+    if not abs(H) > 1e-9 * np.abs(h).sum() or not np.isfinite(H):
+        return a, b
+    m0 = float(h @ B) / H
+    g0 = float(h @ np.linalg.solve(A, -B)) / H
+    if not (m0 * b > 0 and g0 * b > 0):     # a front that does not charge like a layer
+        return a, b
+    return -m0 / g0, m0
+
+
 def _current(model: DFAModel, x, V, q, xdot):
     """Device current at stroke x, voltage V, uniform charge q and stroke velocity xdot:
     the load is chosen so the mechanics give that velocity."""
@@ -104,7 +125,8 @@ def _current(model: DFAModel, x, V, q, xdot):
 def uniform_charge_tables(model: DFAModel, n_grid: int = 161) -> tuple[np.ndarray, np.ndarray]:
     """Tables over x in [0, x_e] of the full model with a uniform interface charge q:
     F_e = c0 V^2 + c1 V q + c2 q^2, current = i0 V + i1 q + xdot (j0 V + j1 q),
-    dl_z/dx; the charge columns hold the zipped material's rates (a, b)."""
+    dl_z/dx; the charge columns hold the zipped material's rates (a, b) and the front
+    layer's (a_f, b_f: front_rates)."""
     x_e = model.kin.x_e
     xg = np.linspace(0.0, x_e, n_grid)
     n = model.n_states
@@ -126,5 +148,9 @@ def uniform_charge_tables(model: DFAModel, n_grid: int = 161) -> tuple[np.ndarra
         tab[i, J0] = (_current(model, x, V_REF, None, dv) - iv) / (dv * V_REF)
         tab[i, J1] = (_current(model, x, 0.0, one, dv) - iq) / (dv * qs)
     tab[:, A_Q], tab[:, B_V] = a, b
+    # the front layer's rates on a coarser grid (each point solves the charge system)
+    xf = np.linspace(0.0, x_e, N_FRONT)
+    af, bf = np.array([front_rates(model, x) for x in xf]).T
+    tab[:, A_F], tab[:, B_F] = np.interp(xg, xf, af), np.interp(xg, xf, bf)
     tab[:, DLZ] = model.kin.dlz_dx(xg)
     return xg, tab

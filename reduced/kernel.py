@@ -20,10 +20,10 @@ import numpy as np
 from numba import njit
 
 # table columns (per grid point)
-C0, C1, C2, A_Q, B_V, I0, I1, J0, J1, DLZ = range(10)
-NTAB = 10
-# parameters
-P_XE, P_B, P_M, P_K, P_KAPPA, P_ELL, P_AVG = range(7)
+C0, C1, C2, A_Q, B_V, I0, I1, J0, J1, DLZ, A_F, B_F = range(12)
+NTAB = 12
+# parameters (P_FRONT: 1.0 when the front layer differs from zipped material: q_d is a state)
+P_XE, P_B, P_M, P_K, P_FRONT, P_ELL, P_AVG = range(7)
 NPAR = 7
 NY = 6
 # record columns
@@ -82,10 +82,11 @@ def evaluate(y, W, tab, par, ydot, rw, mode):
     ydot[0] = xd
     z1d = rw[A_Q] * y[2] + rw[B_V] * V
     ydot[2] = z1d
-    if par[P_KAPPA] != 0.0 or y[3] != 0.0:
-        # the deficit grows as zipped material charges and is renewed as the front
-        # uncovers fresh zipped material at speed |dl_z/dt| (surrogate.py)
-        ydot[3] = par[P_KAPPA] * z1d - abs(rw[DLZ] * xd) / par[P_ELL] * y[3]
+    if par[P_FRONT] != 0.0:
+        # q_d = q_z - q_f: the front layer charges at its own rates (a_f, b_f) and is
+        # renewed by zipped material as the front moves at |dl_z/dt| (surrogate.py)
+        ydot[3] = ((rw[A_Q] - rw[A_F]) * y[2] + rw[A_F] * y[3] + (rw[B_V] - rw[B_F]) * V
+                   - abs(rw[DLZ] * xd) / par[P_ELL] * y[3])
     else:
         ydot[3] = 0.0
     I = rw[I0] * V + rw[I1] * y[2] + xd * (rw[J0] * V + rw[J1] * y[2])
@@ -200,7 +201,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
             nc += 1
         cols[nc] = 2
         nc += 1
-        if par[P_KAPPA] != 0.0:
+        if par[P_FRONT] != 0.0:
             cols[nc] = 3
             nc += 1
         if vs[seg] != 0.0:

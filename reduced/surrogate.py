@@ -5,8 +5,11 @@ All families share one structure (the states are named in `state_names`):
     x      stroke (m)                           b dx/dt = F_e - F - k x   (m = 0)
     v      stroke velocity (m/s), only if m > 0 m dv/dt = F_e - F - k x - b v
     q_z    interface charge of zipped material (C/m^2)    dq_z/dt = a(x) q_z + b(x) V
-    q_d    front-layer charge deficit (C/m^2), only if kappa != 0
-                                                dq_d/dt = kappa dq_z/dt - |dl_z/dt| / ell q_d
+    q_d    front-layer charge deficit q_z - q_f (C/m^2), only if the front layer's
+           rates differ from zipped material's: the front layer's charge q_f follows
+           dq_f/dt = a_f(x) q_f + b_f(x) V + |dl_z/dt| / ell (q_z - q_f)
+           (its own rates, renewed by zipped material as the front moves), so
+           dq_d/dt = (a - a_f) q_z + a_f q_d + (b - b_f) V - |dl_z/dt| / ell q_d
     F_e    = c0(x) V^2 + c1(x) V (q_z - q_d) + c2(x) (q_z - q_d)^2
     current = i0(x) V + i1(x) q_z + dx/dt (j0(x) V + j1(x) q_z)   (no capacitive spike at a jump)
 
@@ -18,6 +21,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from functools import cached_property
 
 import numpy as np
 
@@ -25,13 +29,15 @@ from dfa_model import limits, metrics
 from dfa_model.parameters import Parameters
 from dfa_model.results import StrokeMetrics
 from dfa_model.trace import StrokeTrace
-from dfa_model.waveforms import Load, Protocol, merge
+from dfa_model.waveforms import DC, Bipolar, Load, Protocol, Unipolar, merge
 
 from . import kernel
-from .kernel import NTAB, NY, P_AVG, P_B, P_ELL, P_K, P_KAPPA, P_M, P_XE
+from .kernel import A_F, A_Q, B_F, B_V, NTAB, NY, P_AVG, P_B, P_ELL, P_FRONT, P_K, P_M, P_XE
 
 FORMAT = "dfa-surrogate"
-VERSION = 1
+VERSION = 2     # 2: front-layer rates a_f, b_f as table columns (1 had a fixed share kappa)
+_PURE_WAVEFORMS = (DC, Bipolar, Unipolar)   # segments a function of their fields and the stage duration
+_SEG_CACHE = 20_000                         # largest protocol (segments) whose inputs are kept
 
 
 class SurrogateError(RuntimeError):
@@ -40,19 +46,25 @@ class SurrogateError(RuntimeError):
 
 class SurrogateResult(StrokeMetrics):
     """Time series of a surrogate run (every accepted step) and the full model's metrics
-    (StrokeMetrics: unzipping speed, static stroke, ripple, drift...)."""
+    (StrokeMetrics: unzipping speed, static stroke, ripple, drift...). `y_end`: the final
+    kernel state [x, v, q_z, q_d, V, F] (to continue from, as y0)."""
 
-    def __init__(self, surrogate, protocol, rec, wall_time, steps):
+    def __init__(self, surrogate, protocol, rec, wall_time, steps, y_end):
         self.surrogate = surrogate
         self.protocol = protocol
         self.rec = rec
         self.wall_time = wall_time
         self.n_steps = steps
+        self.y_end = y_end
         R = kernel
         self.t, self.x, self.v = rec[:, R.R_T], rec[:, R.R_X], rec[:, R.R_V]
         self.q_z, self.q_d = rec[:, R.R_Z1], rec[:, R.R_Z2]
         self.V, self.F, self.I, self.Fe = rec[:, R.R_VOLT], rec[:, R.R_F], rec[:, R.R_I], rec[:, R.R_FE]
-        self.trace = StrokeTrace.from_samples(self.t, self.x)
+
+    @cached_property
+    def trace(self) -> StrokeTrace:
+        """The stroke joined linearly between the recorded steps (built on first use)."""
+        return StrokeTrace.from_samples(self.t, self.x)
 
     def summary(self) -> dict:
         return {"static_stroke": self.static_stroke, "final_stroke": self.final_stroke,
@@ -65,11 +77,11 @@ class Surrogate:
     family   'lumped' or 'charge'
     params   the actuator (dfa_model Parameters) the maps were computed for
     x_grid, tables  the maps of the stroke (kernel.py columns)
-    kappa, ell      the front-layer deficit (kappa = 0: no deficit state)
+    ell      front-layer renewal length (m): how far the front moves to renew its layer
     info     provenance: how the maps were built and fitted, training errors
     """
 
-    def __init__(self, family, params: Parameters, x_grid, tables, kappa=0.0, ell=1.0, info=None):
+    def __init__(self, family, params: Parameters, x_grid, tables, ell=1.0, info=None):
         self.family = family
         self.params = params
         self.x_grid = np.ascontiguousarray(x_grid, dtype=float)
@@ -77,9 +89,9 @@ class Surrogate:
         if self.tables.shape != (len(self.x_grid), NTAB):
             raise ValueError(f"tables: expected shape ({len(self.x_grid)}, {NTAB}), got {self.tables.shape}")
         self.x_e = float(self.x_grid[-1])
-        self.kappa = float(kappa)
         self.ell = float(ell)
         self.info = dict(info or {})
+        self._inputs = {}       # merged input segments of recent protocols (_segments)
 
     # ------------------------------------------------------------------ structure
     @property
@@ -88,7 +100,8 @@ class Surrogate:
 
     @property
     def has_deficit(self) -> bool:
-        return self.kappa != 0.0
+        t = self.tables
+        return bool(np.any(t[:, A_F] != t[:, A_Q]) or np.any(t[:, B_F] != t[:, B_V]))
 
     @property
     def state_names(self) -> list[str]:
@@ -106,7 +119,7 @@ class Surrogate:
         p = self.params
         out = np.zeros(kernel.NPAR)
         out[P_XE], out[P_B], out[P_M], out[P_K] = self.x_e, p.b, p.m, p.k + k_extra
-        out[P_KAPPA], out[P_ELL], out[P_AVG] = self.kappa, self.ell, 1.0 if averaged else 0.0
+        out[P_FRONT], out[P_ELL], out[P_AVG] = float(self.has_deficit), self.ell, 1.0 if averaged else 0.0
         return out
 
     def q_scale(self) -> float:
@@ -134,11 +147,31 @@ class Surrogate:
         if not (isinstance(rtol, (int, float)) and 1e-10 <= rtol <= 0.1):
             raise ValueError(f"rtol: got {rtol!r}, expected a number in [1e-10, 0.1]")
         t0 = time.perf_counter()
-        tb, v0, vs, f0, fs = merge(protocol.piecewise(), load.piecewise(protocol.duration))
+        tb, v0, vs, f0, fs = self._segments(protocol, load)
         w2 = v0 * v0 if averaged is None else np.asarray(averaged, float)
-        rec, steps = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps, averaged is not None,
-                               load.k_load)
-        return SurrogateResult(self, protocol, rec, time.perf_counter() - t0, steps)
+        rec, steps, y_end = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps, averaged is not None,
+                                      load.k_load)
+        return SurrogateResult(self, protocol, rec, time.perf_counter() - t0, steps, y_end)
+
+    def _segments(self, protocol, load):
+        """merge(protocol, load): the kernel's input segments. Building them costs about
+        as much as a short run, so those of recent protocols are kept, keyed on the text
+        of every field they depend on (a mutated protocol gets a new key). Only for the
+        stock waveforms (segments a function of their fields and durations alone), a
+        constant load and at most _SEG_CACHE segments; the kernel only reads them."""
+        key = None
+        if type(protocol) is Protocol and type(load) is Load and type(load.F) is float and \
+                all(type(st.waveform) in _PURE_WAVEFORMS for st in protocol.stages):
+            key = repr((load.F, [(type(st.waveform), vars(st.waveform), st.duration) for st in protocol.stages]))
+            seg = self._inputs.get(key)
+            if seg is not None:
+                return seg
+        seg = merge(protocol.piecewise(), load.piecewise(protocol.duration))
+        if key is not None and len(seg[1]) <= _SEG_CACHE:
+            if len(self._inputs) >= 16:
+                self._inputs.clear()
+            self._inputs[key] = seg
+        return seg
 
     def _y0(self, y0):
         y = np.zeros(NY)
@@ -174,8 +207,7 @@ class Surrogate:
             why = {kernel.FULL: "the output buffer is full", kernel.MAX_STEPS: f"the step limit ({max_steps}) was reached",
                    kernel.NONFINITE: "the solution became non-finite"}[status]
             raise SurrogateError(f"surrogate integration stopped at t = {rec[rows - 1, 0]:g} s: {why}")
-        self.y_end = y_end
-        return rec[:rows].copy(), steps
+        return rec[:rows].copy(), steps, y_end
 
     # ------------------------------------------------------------------ python-control
     def _eval(self, xs, V, F, W=None):
@@ -246,7 +278,7 @@ class Surrogate:
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict:
         return {"format": FORMAT, "version": VERSION, "family": self.family, "params_toml": self.params.to_toml(),
-                "x_grid": self.x_grid.tolist(), "tables": self.tables.tolist(), "kappa": self.kappa,
+                "x_grid": self.x_grid.tolist(), "tables": self.tables.tolist(),
                 "ell": self.ell, "states": self.state_names, "info": self.info}
 
     def save(self, path) -> None:
@@ -267,11 +299,11 @@ def from_dict(d: dict) -> Surrogate:
     if d.get("version") != VERSION:
         raise ValueError(f"surrogate file version {d.get('version')!r}; this toolkit reads version {VERSION}")
     try:
-        s = Surrogate(d["family"], params_from_dict(tomllib.loads(d["params_toml"]), "surrogate file"), d["x_grid"], d["tables"], d["kappa"], d["ell"],
+        s = Surrogate(d["family"], params_from_dict(tomllib.loads(d["params_toml"]), "surrogate file"), d["x_grid"], d["tables"], d["ell"],
                       d.get("info"))
     except KeyError as exc:
         raise ValueError(f"surrogate file: missing key {exc.args[0]!r}") from None
-    if not (np.all(np.isfinite(s.tables)) and np.all(np.diff(s.x_grid) > 0) and math.isfinite(s.kappa)
+    if not (np.all(np.isfinite(s.tables)) and np.all(np.diff(s.x_grid) > 0) and math.isfinite(s.ell)
             and s.ell > 0):
         raise ValueError("surrogate file: tables, grid or deficit parameters are corrupt")
     return s

@@ -1,0 +1,87 @@
+"""`dfa hold`: tune the stroke-holding loop on a surrogate and compare it, on the full
+model, with open-loop DC and fixed-frequency inversion over a long hold (holding.py)."""
+from __future__ import annotations
+
+import json
+import math
+import sys
+
+from dfa_model import cli as base
+from dfa_model.fileio import check_writable
+
+
+def add_hold_parser(subparsers):
+    ph = subparsers.add_parser("hold", help="hold a commanded stroke: PI loop tuned on the surrogate, checked on the "
+                                            "full model against open-loop DC and fixed inversion")
+    base._add_params_flags(ph)
+    ph.add_argument("--stroke", type=base._number(0.0, 1.0, lo_open=True), required=True, metavar="X",
+                    help="commanded stroke, m")
+    ph.add_argument("--force", type=base._number(-1e6, 1e6), required=True, metavar="F", help="load, N")
+    ph.add_argument("--duration", type=base._number(0.0, 1e5, lo_open=True), default=300.0, metavar="S",
+                    help="length of the hold, s (default 300)")
+    ph.add_argument("--frequency", type=base._number(0.0, 1e3, lo_open=True), default=10.0, metavar="HZ",
+                    help="polarity-inversion frequency of the drive, Hz (default 10)")
+    ph.add_argument("--family", choices=["charge", "lumped"], default="charge", help="surrogate tuned on")
+    ph.add_argument("--plot", metavar="FILE.png", help="the three strokes and the loop's amplitude")
+    ph.add_argument("--json", action="store_true", help="print controller and metrics as one JSON object (last line)")
+    ph.set_defaults(func=cmd_hold)
+    return ph
+
+
+def _finite(v):
+    return v if isinstance(v, (int, str, bool)) or v is None or math.isfinite(v) else None
+
+
+def cmd_hold(args) -> int:
+    from .families import build
+    from .holding import compare_hold, tune_hold_controller
+    p = base._params(args)
+    if args.plot:
+        check_writable("--plot", args.plot, ("png", "pdf", "svg"))
+    x_e = build(p, "lumped").x_e          # cheap: geometry only
+    if args.stroke >= x_e:
+        raise base.CLIError(f"--stroke: got {args.stroke:g} m, expected a value below the full stroke x_e = {x_e:g} m")
+    s = build(p, args.family)
+    try:
+        c = tune_hold_controller(s, args.stroke, args.force, frequency=args.frequency)
+    except ValueError as exc:
+        raise base.CLIError(str(exc)) from None
+    print(f"PI loop tuned on the {args.family} surrogate at {args.stroke * 1e3:g} mm, {args.force:g} N: "
+          f"kp {c.kp:.4g} V/m, ki {c.ki:.4g} V/(m s), feedforward {c.v_ff:.0f} V, inversion {c.frequency:g} Hz; "
+          f"phase margin {c.phase_margin:.0f} deg, crossover {c.gain_crossover:.3g} rad/s")
+    cmp = compare_hold(p, c, args.duration)
+    print(f"full model, {args.duration:g} s hold (deviation from the commanded stroke after 2 s):")
+    print(f"  {'scheme':16s} {'rms um':>9s} {'max um':>9s} {'final um':>9s} {'mean |V|':>9s} {'power mW':>9s}")
+    for name, m in cmp["metrics"].items():
+        print(f"  {name:16s} {m['rms_dev'] * 1e6:9.2f} {m['max_dev'] * 1e6:9.2f} {m['final_error'] * 1e6:9.2f} "
+              f"{m['mean_abs_V']:9.0f} {m['power'] * 1e3:9.3g}")
+    if args.plot:
+        _plot(cmp, args.plot)
+        print(f"wrote {args.plot}", file=sys.stderr)
+    if args.json:
+        ctrl = {k: _finite(getattr(c, k)) for k in ("kp", "ki", "v_ff", "v_max", "dt", "mode", "frequency",
+                                                     "phase_margin", "gain_margin", "gain_crossover")}
+        out = {"controller": ctrl, "v_open": cmp["v_open"],
+               "metrics": {k: {kk: _finite(vv) for kk, vv in m.items()} for k, m in cmp["metrics"].items()}}
+        print(json.dumps(out))
+    return 0
+
+
+def _plot(cmp, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (ax, axa) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, height_ratios=[3, 1.3])
+    for name, r in cmp["runs"].items():
+        ax.plot(r.t, r.x * 1e3, label=name, lw=1)
+    ax.axhline(cmp["x_ref"] * 1e3, color="k", ls=":", lw=0.8, label="commanded")
+    ax.set_ylabel("stroke (mm)")
+    ax.legend(loc="best")
+    ax.set_title("Holding a stroke on the full model")
+    r = cmp["runs"]["closed loop"]
+    axa.plot(r.t, r.A / 1e3, color="C2", lw=1)
+    axa.set_ylabel("loop amplitude (kV)")
+    axa.set_xlabel("time (s)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,382 @@
+"""Holding a commanded stroke despite charge retention.
+
+Under a constant (DC) voltage the interface charge builds up (tau ~ 75 s for the Table 1
+V-shape) and screens the field: the zipping force falls and the stroke decays (6 kV /
+5 N: 0.87 mm at first, ~0.4 mm after 20 s, fully unzipped after ~40 s). The scheme here:
+
+    drive   polarity inversion at a fixed frequency f (default 10 Hz, square wave, 100 %
+            duty): V(t) = +-A(t), the sign flipping every half period. The interface
+            charge then averages out (feedforward charge balancing), and V^2 = A^2 stays
+            what the stroke sees.
+    loop    a sampled PI controller on the stroke (every dt_control) sets the amplitude A,
+            with the open-loop voltage V0 that gives x_ref in the statics as feedforward,
+            clamped to [0, V_max] with conditional-integration anti-windup. The integral
+            removes what inversion leaves (a ~1 um offset of the mean stroke, the slow
+            residual drift) and anything the feedforward did not know (load changes,
+            parameter error).
+
+Why inversion + amplitude adaptation and not DC amplitude adaptation (mode="dc", also
+implemented): under DC the charge follows the voltage, so holding the force needs a
+voltage that keeps climbing, about V0 / tau per second: the surrogate's steady state
+keeps only 1.7e-5 of the force at x_ref = 0.8 mm (it would need ~240 x V0). On the full
+model (x_ref = 0.8 mm, 5 N) the DC loop's amplitude climbs ~35 V/s, and the stroke breaks
+into a growing oscillation around x_ref (+-50 um at 5 s, +-0.5 mm at 40 s), with these
+gains or a fifth of them, although the surrogate's linearization at q_z = 0 gives it 89 deg
+of phase margin: the charged actuator under DC does not hold a stroke. The amplitude hits
+V_max = 10 kV at ~115 s and the actuator unzips (compare_hold(..., include_dc_loop=True)).
+Inversion costs the switching charge (2 C A^2 per flip: ~0.55 W at 5.8 kV, 10 Hz) but
+holds indefinitely with A ~ V0: on the full model inversion alone at V0 stays within
+0.53 um of x_ref over 300 s, and the loop adds the correction of what V0 does not know
+(a 5 -> 6 N load step: inversion settles 178 um low, the loop returns within ~1 s).
+
+Tuning (tune_hold_controller, python-control on the surrogate): the quasi-static plant
+from amplitude to stroke is the surrogate's linearization at the mechanical balance with
+the charge frozen (q_z = 0: inversion keeps it near zero), G(s) = g p / (s + p) (Table 1:
+g = 0.36 um/V, p = 482 rad/s). The PI zero cancels the mechanical pole, kp = ki / p, and
+ki = w_c / g puts the crossover at w_c, by default the smallest of p / 10, 2 pi f / 10
+(an order below the inversion ripple at 2 f) and 0.2 / dt_control. The margins are those
+of the sampled loop (ZOH plant, discrete PI) from control.margin.
+
+Simulation: simulate_hold closes the loop on the full model with dfa_model.stepper.Stepper
+(the class the FMU runs: exact=True is the FMU's land_on_communication_points = true),
+cosim_hold_fmu closes the same loop around the FMU under fmpy (a Python master). Both set
+the stepper's clock to k * dt at step k, as the FMU does, so the two agree to rounding.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from dfa_model import DFAModel
+from dfa_model.parameters import Parameters
+from dfa_model.stepper import OUTPUTS, Stepper
+
+MODES = ("bipolar", "dc")
+_I_X, _I_I, _I_C = (list(OUTPUTS).index(n) for n in ("stroke", "current", "capacitance"))
+
+
+# ---------------------------------------------------------------------- tuning
+@dataclasses.dataclass(frozen=True)
+class HoldController:
+    """A tuned stroke-holding PI loop (amplitude adaptation).
+
+    kp (V/m), ki (V/(m s))     PI gains on the stroke error x_ref - x
+    v_ff (V)                   feedforward amplitude: the voltage that gives x_ref in the
+                               surrogate's statics (uncharged)
+    v_max (V)                  amplitude clamp [0, v_max]
+    dt (s)                     sample period the margins are for
+    mode, frequency (Hz)       'bipolar': V = +-A flipping every 1/(2 f); 'dc': V = A
+    x_ref (m), F (N)           the operating point tuned for
+    plant_gain (m/V), plant_pole (rad/s)   quasi-static dx/dV and the mechanical pole
+    crossover (rad/s)          design crossover
+    gain_margin, phase_margin (deg), gain_crossover, phase_crossover (rad/s): the sampled
+                               loop's margins (control.margin; gain_margin inf if none)
+    """
+    kp: float
+    ki: float
+    v_ff: float
+    v_max: float
+    dt: float
+    mode: str
+    frequency: float
+    x_ref: float
+    F: float
+    plant_gain: float
+    plant_pole: float
+    crossover: float
+    gain_margin: float
+    phase_margin: float
+    gain_crossover: float
+    phase_crossover: float
+
+    def law(self, x_ref=None) -> _PI:
+        return _PI(self, self.x_ref if x_ref is None else x_ref)
+
+    def loop(self):
+        """The sampled open loop L(z) = C(z) G_zoh(z) (control.TransferFunction)."""
+        import control
+        G = control.tf([self.plant_gain * self.plant_pole], [1.0, self.plant_pole])
+        return _pi_tf(self.kp, self.ki, self.dt) * control.c2d(G, self.dt, "zoh")
+
+
+def _pi_tf(kp, ki, dt):
+    import control
+    # u_k = kp e_k + sum_j<=k ki dt e_j  ->  C(z) = kp + ki dt z / (z - 1)
+    return control.tf([kp + ki * dt, -kp], [1.0, -1.0], dt)
+
+
+def feedforward_voltage(s_or_params, x_ref, F, v_lo=100.0, v_hi=None):
+    """The DC voltage whose static (uncharged) stroke is x_ref under the load F: from the
+    surrogate's statics for a Surrogate, from dfa_model.statics for Parameters/DFAModel."""
+    from scipy.optimize import brentq
+    if hasattr(s_or_params, "equilibrium"):
+        def stroke(V):
+            return float(s_or_params.equilibrium(V, F)[0])
+    else:
+        import warnings
+
+        from dfa_model import PhysicsWarning
+        from dfa_model.statics import equilibrium_stroke
+
+        def stroke(V):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", PhysicsWarning)
+                return float(equilibrium_stroke(s_or_params, V, F, warn=False))
+    v_hi = v_hi or 50_000.0
+    if stroke(v_hi) < x_ref:
+        raise ValueError(f"x_ref = {x_ref:g} m is not reachable below {v_hi:g} V under {F:g} N")
+    return float(brentq(lambda V: stroke(V) - x_ref, v_lo, v_hi, xtol=1e-6))
+
+
+def tune_hold_controller(s, x_ref: float, F: float, bandwidth: float | None = None, *, dt_control: float = 0.01,
+                         frequency: float = 10.0, mode: str = "bipolar", v_max: float = 10_000.0) -> HoldController:
+    """Tune the amplitude-adaptation PI loop on the surrogate `s` (reduced.build) at the
+    stroke x_ref (m) under the load F (N). bandwidth: the crossover (rad/s), default
+    min(p / 10, 2 pi f / 10, 0.2 / dt_control) with p the mechanical pole. See the module
+    docstring; the margins returned are the sampled loop's."""
+    import control
+    if mode not in MODES:
+        raise ValueError(f"mode: got {mode!r}, expected one of {', '.join(MODES)}")
+    if not (dt_control > 0 and frequency > 0):
+        raise ValueError("dt_control and frequency must be > 0")
+    v_ff = feedforward_voltage(s, x_ref, F)
+    if v_ff > v_max:
+        raise ValueError(f"x_ref needs {v_ff:.0f} V, above v_max = {v_max:g} V")
+    lin = s.linearize(v_ff, F, freeze_charge=True)
+    G = control.ss2tf(lin.A, lin.B[:, :1], lin.C[:1, :], lin.D[:1, :1])
+    g = float(np.real(control.dcgain(G)))
+    pole = float(np.min(np.abs(np.real(control.poles(G)))))
+    if not g > 0:
+        raise ValueError(f"the plant gain dx/dV at {v_ff:.0f} V is {g:g}: no stroke control there")
+    wc = bandwidth if bandwidth is not None else min(pole / 10.0, 2 * math.pi * frequency / 10.0, 0.2 / dt_control)
+    ki = wc / g
+    kp = ki / pole
+    Gd = control.c2d(control.tf([g * pole], [1.0, pole]), dt_control, "zoh")
+    if mode == "dc":
+        # the loop under DC also sees the charge: the full 2-state linearization
+        lin_full = s.linearize(v_ff, F)
+        Gd = control.c2d(control.ss(lin_full.A, lin_full.B[:, :1], lin_full.C[:1, :], lin_full.D[:1, :1]),
+                         dt_control, "zoh")
+    L = _pi_tf(kp, ki, dt_control) * Gd
+    gm, pm, wcg, wcp = control.margin(L)
+    return HoldController(kp=float(kp), ki=float(ki), v_ff=v_ff, v_max=float(v_max), dt=float(dt_control), mode=mode,
+                          frequency=float(frequency), x_ref=float(x_ref), F=float(F), plant_gain=g, plant_pole=pole,
+                          crossover=float(wc), gain_margin=float(gm), phase_margin=float(pm),
+                          gain_crossover=float(wcp), phase_crossover=float(wcg))
+
+
+# ---------------------------------------------------------------------- amplitude laws
+class _PI:
+    """Sampled PI with feedforward, clamp [0, v_max] and conditional integration."""
+
+    def __init__(self, c: HoldController, x_ref: float):
+        self.c, self.x_ref, self.i = c, float(x_ref), 0.0
+
+    def __call__(self, x: float) -> float:
+        c = self.c
+        e = self.x_ref - x
+        i_new = self.i + c.ki * c.dt * e
+        u = c.v_ff + c.kp * e + i_new
+        if u > c.v_max:
+            u = c.v_max
+            if e < 0:
+                self.i = i_new
+        elif u < 0.0:
+            u = 0.0
+            if e > 0:
+                self.i = i_new
+        else:
+            self.i = i_new
+        return u
+
+
+class _Constant:
+    def __init__(self, V):
+        self.V = float(V)
+
+    def __call__(self, x):
+        return self.V
+
+
+def _polarity(mode, frequency, dt):
+    """Steps per half period (bipolar) or 0 (dc)."""
+    if mode == "dc":
+        return 0
+    half = 1.0 / (2.0 * frequency * dt)
+    n = round(half)
+    if n < 1 or abs(half - n) > 1e-6 * half:
+        raise ValueError(f"frequency: a half period 1/(2 f) = {1 / (2 * frequency):g} s must be a whole number of "
+                         f"control steps dt = {dt:g} s")
+    return n
+
+
+def _force_fn(F):
+    if callable(F):
+        return F
+    F = float(F)
+    return lambda t: F
+
+
+# ---------------------------------------------------------------------- results
+@dataclasses.dataclass
+class HoldResult:
+    """A hold run sampled every dt: t[k], stroke x[k] at t[k]; A[k], V[k], F[k] the
+    amplitude, voltage and force applied over [t[k], t[k+1]] (the last repeats);
+    I[k], C[k] the current and capacitance at t[k]."""
+    label: str
+    t: np.ndarray
+    x: np.ndarray
+    A: np.ndarray
+    V: np.ndarray
+    F: np.ndarray
+    I: np.ndarray
+    C: np.ndarray
+    wall_time: float
+
+    def metrics(self, x_ref: float, t_skip: float = 2.0, t_final: float = 1.0) -> dict:
+        """Deviation from x_ref after t_skip (m): rms, max |.|, final (mean over the last
+        t_final s, which averages the inversion ripple); mean |V| (V); drive power proxy
+        (W): mean V I (conduction, recorded current) plus the charge pushed at every
+        voltage jump, C V_new (V_new - V_old) each, over the window."""
+        w = self.t >= t_skip - 1e-12
+        d = self.x[w] - x_ref
+        T = self.t[-1] - self.t[w][0]
+        fin = self.t >= self.t[-1] - t_final - 1e-12
+        Vw, Iw = self.V[w][:-1], self.I[w][1:]              # V over [t_k, t_k+1], I at t_k+1
+        idx = np.nonzero(w)[0]
+        jumps = [k for k in idx[1:-1] if self.V[k] != self.V[k - 1]]
+        e_jump = sum(self.C[k] * self.V[k] * (self.V[k] - self.V[k - 1]) for k in jumps)
+        return {"rms_dev": float(np.sqrt(np.mean(d * d))), "max_dev": float(np.max(np.abs(d))),
+                "final_error": float(np.mean(self.x[fin]) - x_ref), "mean_abs_V": float(np.mean(np.abs(Vw))),
+                "power": float(np.mean(Vw * Iw) + e_jump / T), "wall_time": self.wall_time}
+
+
+def _run_loop(step, read, law, mode, frequency, F, duration, dt, label) -> HoldResult:
+    """The master loop shared by the in-process and FMU runs: at t_k read the stroke,
+    compute the amplitude, apply +-A (polarity from k) and the force over [t_k, t_k + dt]."""
+    n = round(duration / dt)
+    if n < 1 or abs(n * dt - duration) > 1e-9 * duration:
+        raise ValueError(f"duration: expected a positive multiple of dt = {dt:g} s, got {duration!r}")
+    half = _polarity(mode, frequency, dt)
+    force = _force_fn(F)
+    out = {k: np.empty(n + 1) for k in ("t", "x", "A", "V", "F", "I", "C")}
+    wall = time.perf_counter()
+    for k in range(n + 1):
+        t = k * dt
+        x, i, c = read()
+        A = law(x)
+        V = A if half == 0 or (k // half) % 2 == 0 else -A
+        f = force(t)
+        for key, val in (("t", t), ("x", x), ("A", A), ("V", V), ("F", f), ("I", i), ("C", c)):
+            out[key][k] = val
+        if k < n:
+            step(t, dt, V, f)
+    return HoldResult(label, *(out[k] for k in ("t", "x", "A", "V", "F", "I", "C")),
+                      wall_time=time.perf_counter() - wall)
+
+
+def _law_for(controller, x_ref):
+    if isinstance(controller, HoldController):
+        return controller.law(x_ref), controller.mode, controller.frequency, controller.dt
+    raise TypeError("controller: expected a HoldController (tune_hold_controller)")
+
+
+# ---------------------------------------------------------------------- full model
+def simulate_hold(params_or_model: Parameters | DFAModel, controller: HoldController | float, x_ref: float | None = None,
+                  F: float | Callable | None = None, duration: float = 120.0, dt_control: float | None = None, *,
+                  mode: str | None = None, frequency: float | None = None, v_nominal: float = 6000.0,
+                  exact: bool = True, label: str | None = None) -> HoldResult:
+    """Run a hold on the full model (dfa_model Stepper, step by step, from rest uncharged).
+
+    controller  a HoldController (closed loop), or a number: an open-loop amplitude (V)
+                with `mode` ('dc' or 'bipolar') and `frequency` (Hz)
+    x_ref, F    stroke reference (m; default the controller's) and load (N, or a
+                function of t; default the controller's)
+    dt_control  sample period (s; default the controller's dt, else 0.01)
+    v_nominal, exact   Stepper options (the FMU's v_nominal and land_on_communication_points)"""
+    if isinstance(controller, HoldController):
+        law, mode_, freq, dt = _law_for(controller, x_ref)
+        mode, frequency = mode or mode_, frequency or freq
+        F = controller.F if F is None else F
+        label = label or f"closed loop ({mode})"
+    else:
+        law, dt = _Constant(controller), 0.01
+        mode, frequency = mode or "dc", frequency or 10.0
+        F = 0.0 if F is None else F
+        label = label or (f"open-loop DC {controller:.0f} V" if mode == "dc" else
+                          f"inversion {frequency:g} Hz {controller:.0f} V")
+    if mode not in MODES:
+        raise ValueError(f"mode: got {mode!r}, expected one of {', '.join(MODES)}")
+    dt = dt_control or dt
+    model = params_or_model if isinstance(params_or_model, DFAModel) else DFAModel(params_or_model)
+    st = Stepper(model, v_nominal=v_nominal, t_end=duration, exact=exact)
+
+    def step(t, h, V, f):
+        st.t = t                       # the master's clock, as the FMU's do_step sets it
+        st.step(h, V, f)
+
+    def read():
+        o = st.out
+        return float(o[_I_X]), float(o[_I_I]), float(o[_I_C])
+
+    return _run_loop(step, read, law, mode, frequency, F, duration, dt, label)
+
+
+def compare_hold(params_or_model, controller: HoldController, duration: float = 300.0, *, x_ref=None, F=None,
+                 t_skip: float = 2.0, include_dc_loop: bool = False, v_open: float | None = None) -> dict:
+    """The same long hold on the full model under: open-loop DC at v_open, fixed-frequency
+    inversion (the controller's frequency) at v_open, and the closed loop; with
+    include_dc_loop also the DC amplitude-adaptation loop (same gains, mode 'dc').
+    v_open: default the full model's static voltage for x_ref under the initial load.
+    Returns {'v_open', 'x_ref', 'runs': {name: HoldResult}, 'metrics': {name: dict}}."""
+    model = params_or_model if isinstance(params_or_model, DFAModel) else DFAModel(params_or_model)
+    x_ref = controller.x_ref if x_ref is None else x_ref
+    F = controller.F if F is None else F
+    F0 = F(0.0) if callable(F) else F
+    if v_open is None:
+        v_open = feedforward_voltage(model, x_ref, F0)
+    runs = {
+        "open-loop DC": simulate_hold(model, v_open, x_ref, F, duration, controller.dt, mode="dc",
+                                      label="open-loop DC"),
+        "inversion": simulate_hold(model, v_open, x_ref, F, duration, controller.dt, mode="bipolar",
+                                   frequency=controller.frequency, label=f"inversion {controller.frequency:g} Hz"),
+        "closed loop": simulate_hold(model, controller, x_ref, F, duration, label="closed loop"),
+    }
+    if include_dc_loop:
+        dc = dataclasses.replace(controller, mode="dc")
+        runs["DC loop"] = simulate_hold(model, dc, x_ref, F, duration, label="DC amplitude loop")
+    return {"v_open": v_open, "x_ref": x_ref, "runs": runs,
+            "metrics": {k: r.metrics(x_ref, t_skip) for k, r in runs.items()}}
+
+
+# ---------------------------------------------------------------------- FMU
+def cosim_hold_fmu(fmu_path, controller: HoldController, x_ref: float | None = None, F=None, duration: float = 60.0,
+                   dt: float | None = None, *, v_nominal: float = 6000.0, exact: bool = True,
+                   start: dict | None = None) -> HoldResult:
+    """The loop of simulate_hold closed around the actuator FMU (dfa fmu build) by a
+    Python master under fmpy (fmu.cosim's FMU2Slave wrapper): every dt, read the stroke,
+    compute the amplitude, set voltage and force, doStep. v_nominal / exact go to the
+    FMU's parameters v_nominal / land_on_communication_points; `start`: other start
+    values."""
+    from fmu.cosim import _Unit
+    law, mode, frequency, dt_c = _law_for(controller, x_ref)
+    dt = dt or dt_c
+    F = controller.F if F is None else F
+    unit = _Unit(fmu_path, "actuator", {"v_nominal": float(v_nominal), "land_on_communication_points": bool(exact),
+                                        **(start or {})}, duration)
+    names = ("stroke", "current", "capacitance")
+    try:
+        def step(t, h, V, f):
+            unit.set(("voltage", "force"), (V, f))
+            unit.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+
+        def read():
+            return tuple(unit.get(names))
+
+        return _run_loop(step, read, law, mode, frequency, F, duration, dt, "closed loop (FMU)")
+    finally:
+        unit.close()
