@@ -168,31 +168,32 @@ def averaged_inputs(V, f, duty, t_ramp=0.0):
     return (2.0 * duty - 1.0) * V, V * V * (1.0 - 4.0 / 3.0 * t_ramp * f)
 
 
+def _charge_profile(wave: BipolarTrapezoid, n: int = 4001):
+    """(t, g, <g>) over one period from the drive's start: g(t) = int_0^t (V - <V>) dt'
+    (V s), trapezoid rule on n points, and its period mean."""
+    T = 1.0 / wave.frequency
+    t = np.linspace(0.0, T, n)
+    v = wave.piecewise(T)(t) - (2 * wave.duty - 1) * wave.V
+    g = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+    return t, g, float(np.sum(0.5 * (g[1:] + g[:-1]) * np.diff(t)) / T)
+
+
 def balanced_phase(wave: BipolarTrapezoid, n: int = 4001) -> float:
     """The phase (share of a period) at which g(t) = int_0^t (V - <V>) dt' passes its
     period mean while rising: a drive started there has charge_phase_offset 0. For duty
     0.5 and ideal switching that is T/4: half a pulse first."""
-    w = BipolarTrapezoid(wave.V, wave.frequency, wave.duty, wave.t_ramp)
-    T = 1.0 / w.frequency
-    t = np.linspace(0.0, T, n)
-    v = w.piecewise(T)(t) - (2 * w.duty - 1) * w.V
-    g = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
-    gm = float(np.sum(0.5 * (g[1:] + g[:-1]) * np.diff(t)) / T)
-    i_peak = int(np.argmax(g) if w.V > 0 else np.argmin(g))
+    t, g, gm = _charge_profile(BipolarTrapezoid(wave.V, wave.frequency, wave.duty, wave.t_ramp), n)
+    sg = 1.0 if wave.V > 0 else -1.0
+    i_peak = int(np.argmax(sg * g))
     # g runs monotonically from 0 to its extreme over the first polarity: interpolate
-    return float(np.interp(gm, g[:i_peak + 1], t[:i_peak + 1]) / T) if w.V > 0 else \
-        float(np.interp(-gm, -g[:i_peak + 1], t[:i_peak + 1]) / T)
+    return float(np.interp(sg * gm, sg * g[:i_peak + 1], t[:i_peak + 1]) / t[-1])     # t[-1] = T
 
 
 def charge_phase_offset(wave: BipolarTrapezoid, n: int = 4001) -> float:
     """<g> - g(0) with g(t) = int_0^t (V - <V>) dt' over one period (V s): the periodic
     charge oscillation is q' = b (g - <g>), so a run starting at phase 0 starts at
     q = <q> - b (<g> - g(0)) = <q> - b <g>."""
-    T = 1.0 / wave.frequency
-    t = np.linspace(0.0, T, n)
-    v = wave.piecewise(T)(t) - (2 * wave.duty - 1) * wave.V
-    g = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
-    return float(np.sum(0.5 * (g[1:] + g[:-1]) * np.diff(t)) / T)
+    return _charge_profile(wave, n)[2]
 
 
 def last_period(result, period: float, t_end: float | None = None):

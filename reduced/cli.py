@@ -6,7 +6,10 @@ They plug into the `dfa` command through the entry-point group `dfa.commands`
 from __future__ import annotations
 
 import json
+import math
 import sys
+
+import numpy as np
 
 from dfa_model import cli as base
 from dfa_model.fileio import check_writable
@@ -56,8 +59,18 @@ def cmd_reduce(args) -> int:
     return 0
 
 
-def _clean(v):
-    return None if (isinstance(v, float) and v != v) else v
+def json_safe(v):
+    """v for json.dumps: non-finite numbers become null (JSON has no NaN or Infinity),
+    NumPy scalars plain Python ones; dicts recursively. One cleaner for every
+    subcommand's --json."""
+    if isinstance(v, dict):
+        return {k: json_safe(x) for k, x in v.items()}
+    if isinstance(v, (float, np.floating)):
+        v = float(v)
+        return v if math.isfinite(v) else None
+    if isinstance(v, np.bool_):
+        return bool(v)
+    return v
 
 
 def cmd_compare(args) -> int:
@@ -72,7 +85,7 @@ def cmd_compare(args) -> int:
     row = compare(s, proto, args.force)
     if args.plot:
         plot(row, args.plot)
-    out = {k: _clean(row[k]) for k in KEYS}
+    out = {k: json_safe(row[k]) for k in KEYS}
     if args.json:
         print(json.dumps(out))
         return 0

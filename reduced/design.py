@@ -301,21 +301,11 @@ def add_design_parser(subparsers):
     return pd
 
 
-def _clean(v):
-    if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
-    if isinstance(v, (float, np.floating)):
-        v = float(v)
-        return v if math.isfinite(v) else None
-    if isinstance(v, np.bool_):
-        return bool(v)
-    return v
-
-
 def design_command(args) -> int:
     """`dfa design`: build the surrogate, design, print a summary (and JSON)."""
     from dfa_model import cli as base
 
+    from .cli import json_safe
     from .families import build
     p = base._params(args)
     s = build(p, args.family)
@@ -344,5 +334,5 @@ def design_command(args) -> int:
         print(f"  no frequency meets the limits: {d.reason}", file=out)
     print(f"  wall time {d.wall_time:.2f} s", file=out)
     if args.json:
-        print(json.dumps(_clean(d.to_dict())), file=out)
+        print(json.dumps(json_safe(d.to_dict())), file=out)
     return 0

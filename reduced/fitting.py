@@ -5,8 +5,9 @@
 
 The full model's training responses run through dfa_model.sweep's executor (progress
 bar on stderr). The surrogate's maps stay as built (families.py); only its few free
-numbers are fitted, by least squares on the stroke records (RMS error relative to each
-run's stroke range) and the unzipping speeds:
+numbers are fitted to the residuals of the stroke records (RMS error relative to each
+run's stroke range) and of the unzipping speeds, by least squares (lumped) or a bounded
+scalar search on a Huber loss (charge); info['fitted'] reports that Huber cost for both:
   charge   ell, the length over which the moving front renews its layer (the
            front layer's rates themselves are the full model's: frozen.front_rates)
   lumped   a force scale and a charge-rate scale (the refinement of the circuit's
@@ -170,7 +171,7 @@ def fit(params: Parameters, family: str = "charge", envelope: Envelope | None = 
     else:
         sol = least_squares(lambda th: _residuals(_apply(base, family, th), envelope.training, fulls), theta0,
                             bounds=(lo, hi), diff_step=1e-3, x_scale=[0.1, 0.1], max_nfev=60)
-        theta, cost_after = sol.x, float(sol.cost)
+        theta, cost_after = sol.x, cost(sol.x)     # the same measure as cost_before
     s = _apply(base, family, theta)
     s.info.update({"fitted": {"theta": theta.tolist(), "cost_before": cost(theta0),
                               "cost_after": cost_after, "training": [c.label for c in envelope.training]}})

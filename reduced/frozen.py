@@ -67,15 +67,15 @@ def electrical_lti(model: DFAModel, x: float):
 def force_sensitivity(model: DFAModel, x: float) -> np.ndarray:
     """dF_e/dq_j per volt at q = 0 (the force's bilinear V q term): where along the
     electrode the interface charge acts on the force."""
-    nb, n = model.nbord, model.n_states
+    n = model.n_states
     qs = q_scale(model)
     Fv = model.electrostatic_force(state(model, x), V_REF)
     h = np.empty(n)
     for j in range(n):
         q = np.zeros(n)
         q[j] = qs
-        h[j] = (model.electrostatic_force(state(model, x, q), V_REF) - Fv
-                - model.electrostatic_force(state(model, x, q), 0.0)) / (qs * V_REF)
+        y = state(model, x, q)
+        h[j] = (model.electrostatic_force(y, V_REF) - Fv - model.electrostatic_force(y, 0.0)) / (qs * V_REF)
     return h
 
 
@@ -92,17 +92,18 @@ def zipped_rates(model: DFAModel):
     return float(a), float(b)
 
 
-def front_rates(model: DFAModel, x: float):
+def front_rates(model: DFAModel, x: float, zipped=None):
     """(a_f, b_f) of the front layer at stroke x: the one-pole model b_f / (s - a_f) of
     the force-weighted charge h^T q / h^T 1 (h: force_sensitivity; zipped material has
     h = 0, the force acts through the few elements at the front) whose Markov parameter
     (h^T B / h^T 1: the charging rate, which sets the ripple under fast inversion) and DC
     gain (-h^T A^-1 B / h^T 1: the steady charge) are the full model's (moment matching
-    at s = infinity and s = 0). Where no element is at the front (h = 0), zipped rates."""
+    at s = infinity and s = 0). Where no element is at the front (h = 0), zipped rates
+    (`zipped`: zipped_rates(model), if the caller has them)."""
     A, B = electrical_lti(model, x)
     h = force_sensitivity(model, x)
     H = h.sum()
-    a, b = zipped_rates(model)
+    a, b = zipped if zipped is not None else zipped_rates(model)
     if not abs(H) > 1e-9 * np.abs(h).sum() or not np.isfinite(H):
         return a, b
     m0 = float(h @ B) / H
@@ -150,7 +151,7 @@ def uniform_charge_tables(model: DFAModel, n_grid: int = 161) -> tuple[np.ndarra
     tab[:, A_Q], tab[:, B_V] = a, b
     # the front layer's rates on a coarser grid (each point solves the charge system)
     xf = np.linspace(0.0, x_e, N_FRONT)
-    af, bf = np.array([front_rates(model, x) for x in xf]).T
+    af, bf = np.array([front_rates(model, x, (a, b)) for x in xf]).T
     tab[:, A_F], tab[:, B_F] = np.interp(xg, xf, af), np.interp(xg, xf, bf)
     tab[:, DLZ] = model.kin.dlz_dx(xg)
     return xg, tab

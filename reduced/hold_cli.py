@@ -3,11 +3,12 @@ model, with open-loop DC and fixed-frequency inversion over a long hold (holding
 from __future__ import annotations
 
 import json
-import math
 import sys
 
 from dfa_model import cli as base
 from dfa_model.fileio import check_writable
+
+from .cli import json_safe
 
 
 def add_hold_parser(subparsers):
@@ -28,20 +29,18 @@ def add_hold_parser(subparsers):
     return ph
 
 
-def _finite(v):
-    return v if isinstance(v, (int, str, bool)) or v is None or math.isfinite(v) else None
-
-
 def cmd_hold(args) -> int:
     from .families import build
+    from .frozen import as_model
     from .holding import compare_hold, tune_hold_controller
     p = base._params(args)
     if args.plot:
-        check_writable("--plot", args.plot, ("png", "pdf", "svg"))
-    x_e = build(p, "lumped").x_e          # cheap: geometry only
+        check_writable("--plot", args.plot, base.PLOT_FORMATS)
+    model = as_model(p)      # the stroke is checked before the surrogate's maps are built
+    x_e = model.kin.x_e
     if args.stroke >= x_e:
         raise base.CLIError(f"--stroke: got {args.stroke:g} m, expected a value below the full stroke x_e = {x_e:g} m")
-    s = build(p, args.family)
+    s = build(model, args.family)
     try:
         c = tune_hold_controller(s, args.stroke, args.force, frequency=args.frequency)
     except ValueError as exc:
@@ -49,7 +48,7 @@ def cmd_hold(args) -> int:
     print(f"PI loop tuned on the {args.family} surrogate at {args.stroke * 1e3:g} mm, {args.force:g} N: "
           f"kp {c.kp:.4g} V/m, ki {c.ki:.4g} V/(m s), feedforward {c.v_ff:.0f} V, inversion {c.frequency:g} Hz; "
           f"phase margin {c.phase_margin:.0f} deg, crossover {c.gain_crossover:.3g} rad/s")
-    cmp = compare_hold(p, c, args.duration)
+    cmp = compare_hold(model, c, args.duration)
     print(f"full model, {args.duration:g} s hold (deviation from the commanded stroke after 2 s):")
     print(f"  {'scheme':16s} {'rms um':>9s} {'max um':>9s} {'final um':>9s} {'mean |V|':>9s} {'power mW':>9s}")
     for name, m in cmp["metrics"].items():
@@ -59,11 +58,9 @@ def cmd_hold(args) -> int:
         _plot(cmp, args.plot)
         print(f"wrote {args.plot}", file=sys.stderr)
     if args.json:
-        ctrl = {k: _finite(getattr(c, k)) for k in ("kp", "ki", "v_ff", "v_max", "dt", "mode", "frequency",
-                                                     "phase_margin", "gain_margin", "gain_crossover")}
-        out = {"controller": ctrl, "v_open": cmp["v_open"],
-               "metrics": {k: {kk: _finite(vv) for kk, vv in m.items()} for k, m in cmp["metrics"].items()}}
-        print(json.dumps(out))
+        ctrl = {k: getattr(c, k) for k in ("kp", "ki", "v_ff", "v_max", "dt", "mode", "frequency", "phase_margin",
+                                           "gain_margin", "gain_crossover")}
+        print(json.dumps(json_safe({"controller": ctrl, "v_open": cmp["v_open"], "metrics": cmp["metrics"]})))
     return 0
 
 

@@ -25,7 +25,7 @@ from functools import cached_property
 
 import numpy as np
 
-from dfa_model import limits, metrics
+from dfa_model import limits
 from dfa_model.parameters import Parameters
 from dfa_model.results import StrokeMetrics
 from dfa_model.trace import StrokeTrace
@@ -91,6 +91,8 @@ class Surrogate:
         self.x_e = float(self.x_grid[-1])
         self.ell = float(ell)
         self.info = dict(info or {})
+        t = self.tables      # a front layer with rates of its own makes q_d a state
+        self._front = bool(np.any(t[:, A_F] != t[:, A_Q]) or np.any(t[:, B_F] != t[:, B_V]))
         self._inputs = {}       # merged input segments of recent protocols (_segments)
 
     # ------------------------------------------------------------------ structure
@@ -100,8 +102,7 @@ class Surrogate:
 
     @property
     def has_deficit(self) -> bool:
-        t = self.tables
-        return bool(np.any(t[:, A_F] != t[:, A_Q]) or np.any(t[:, B_F] != t[:, B_V]))
+        return self._front
 
     @property
     def state_names(self) -> list[str]:
