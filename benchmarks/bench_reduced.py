@@ -45,7 +45,7 @@ def main():
     p = preset("vshape-table1")
     t0 = time.perf_counter()
     s = reduced.fit(p, family="charge", progress=False)
-    print(f"fit (training + held-out full runs, least squares): {time.perf_counter() - t0:.1f} s; "
+    print(f"fit (training + held-out full runs and the search): {time.perf_counter() - t0:.1f} s; "
           f"{s.n_states} states {s.state_names}")
 
     proto = Protocol.reset_then_hold(6000.0, 20.0)

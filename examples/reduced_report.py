@@ -39,11 +39,10 @@ from _common import OUT, plt
 
 import reduced
 from dfa_model import parameters, preset
-from reduced.fitting import MIN_RANGE, Condition, Envelope, full_runs
+from reduced.fitting import MIN_RANGE, MIN_SPEED, Condition, Envelope, full_runs
 
 RMS_GOAL, SPEED_GOAL = 0.02, 0.05          # fractions
 SPEED_CLIP = 25.0                          # %: the speed panel's range
-MIN_SPEED = 1e-6                           # m/s: below it the speed error is not defined (tests)
 SURROGATES = ("lumped (unfitted)", "lumped (fitted)", "charge (fitted)")
 COLORS = {"lumped (unfitted)": "C7", "lumped (fitted)": "C0", "charge (fitted)": "C3"}
 MARKERS = {"lumped (unfitted)": "s", "lumped (fitted)": "^", "charge (fitted)": "o"}

@@ -4,7 +4,11 @@ Definitions (one implementation, used by `dfa compare`, the fitting and the repo
   stroke_rms_error    RMS of x_reduced - x_full over the run (m), integrated exactly on
                       the union of both records' points (both piecewise linear there)
   stroke_range        max - min of the full model's stroke (m)
-  unzipping_speed_*   Sec. 3.1 definition over the hold window (StrokeMetrics)
+  unzipping_speed_*   Sec. 3.1 definition over the hold window (StrokeMetrics) for DC;
+                      under a square wave the same on the per-period peak stroke (from
+                      the highest period's peak to the last period's, hold_speed): the
+                      stroke itself swings every period, and with dead time drops to 0,
+                      so its peak-to-end drop would measure the ripple's phase
   ripple_*            peak-to-peak stroke per period, mean of the last 5 periods (m);
                       None for DC
   drift_*             stroke lost by the end relative to the uncharged static stroke
@@ -21,6 +25,7 @@ import warnings
 import numpy as np
 
 from dfa_model import PhysicsWarning, simulate
+from dfa_model.metrics import cycles
 from dfa_model.statics import equilibrium_stroke
 from dfa_model.waveforms import Bipolar, Unipolar
 
@@ -52,6 +57,20 @@ def hold_period(protocol):
     return None
 
 
+def hold_speed(res, protocol) -> float:
+    """Unzipping speed over the hold (m/s; module docstring): Sec. 3.1 for DC, the
+    per-period peak stroke's under a square wave with at least two whole periods."""
+    period = hold_period(protocol)
+    if period is None:
+        return res.unzipping_speed
+    t0, t1 = protocol.stage_span("hold") or (0.0, protocol.duration)
+    c = cycles(res.trace, period, t0, min(t1, res.trace.t1))
+    if len(c) < 2:
+        return res.unzipping_speed
+    k = int(np.argmax(c[:, 3]))
+    return 0.0 if k == len(c) - 1 else float((c[k, 3] - c[-1, 3]) / (c[-1, 0] - c[k, 0]))
+
+
 def _metrics(res, params, protocol, F, period):
     span = protocol.stage_span("hold") or (0.0, protocol.duration)
     with warnings.catch_warnings():
@@ -64,7 +83,7 @@ def _metrics(res, params, protocol, F, period):
         ripple = None if ripple != ripple else float(ripple)
     else:
         ripple, end = None, res.final_stroke
-    return res.unzipping_speed, ripple, float(x_static - end)
+    return hold_speed(res, protocol), ripple, float(x_static - end)
 
 
 def compare(surrogate, protocol, load=0.0, full_result=None, rtol=1e-4) -> dict:

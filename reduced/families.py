@@ -14,8 +14,12 @@ charge   Reduced charge dynamics of the full model. At a frozen stroke the full 
          at the front, not through zipped material, and they charge at their own
          rates: a front-layer state q_d = q_z - q_f whose rates (a_f, b_f) match the
          full model's force-weighted charge at s = 0 and s = infinity
-         (frozen.front_rates), renewed by zipped material over a length ell as the
-         front moves (ell: default_ell, fitted by fit()).
+         (frozen.front_layer). The moving front renews the layer over a length
+         ell(x) = c_ell w_f(x), w_f the layer's width read off the full model's force
+         sensitivity (frozen.front_layer): retreating, with zipped material; advancing,
+         with the material beyond, which still carries a share beta_f of the layer's
+         deficit (a front that comes back finds much of its old layer). c_ell and
+         beta_f are fit()'s two numbers.
 """
 from __future__ import annotations
 
@@ -24,7 +28,7 @@ import numpy as np
 from dfa_model import DFAModel
 
 from . import frozen
-from .kernel import A_F, A_Q, B_F, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB
+from .kernel import A_F, A_Q, B_F, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB, W_F
 from .surrogate import Surrogate
 
 FAMILIES = ("lumped", "charge")
@@ -52,26 +56,18 @@ def lumped(params, n_grid: int = 161) -> Surrogate:
     tab[:, I1] = area * (c_f / cs * a + g_f / cs)
     tab[:, J0], tab[:, J1] = darea * c_f * c_l / cs, darea * c_f / cs
     tab[:, DLZ] = dlz
+    tab[:, W_F] = 1.0       # no front layer: never read
     info = {"source": "geometry and materials (lumped circuit)", "tau": -1.0 / a}
-    return Surrogate("lumped", p, xg, tab, 1.0, info)
+    return Surrogate("lumped", p, xg, tab, info=info)
 
 
-def charge(params, n_grid: int = 161, ell: float | None = None) -> Surrogate:
-    """Reduced charge dynamics read off the full model (ell: the default until fitted)."""
+def charge(params, n_grid: int = 161, c_ell: float = 1.0, beta_f: float = 1.0) -> Surrogate:
+    """Reduced charge dynamics read off the full model (c_ell, beta_f: the front layer's
+    renewal, Surrogate; until fitted, ell = w_f and a returning front finds its layer)."""
     model = frozen.as_model(params)
     xg, tab = frozen.uniform_charge_tables(model, n_grid)
-    if ell is None:
-        ell = default_ell(model)
     info = {"source": "full model's frozen-stroke maps (reduced charge dynamics)", "tau": -1.0 / tab[0, A_Q]}
-    return Surrogate("charge", model.params, xg, tab, ell, info)
-
-
-def default_ell(model: DFAModel) -> float:
-    """Front-layer length (m): the zipped liquid's thickness u0 = t_lz + 2 eps_l t_f/eps_f
-    over the gap's opening slope at the front, k = 2a/(l - l_z), for a half-zipped V."""
-    p = model.params
-    u0 = p.t_lz + 2.0 * p.eps_l * p.t_f / p.eps_f
-    return float(u0 / 0.3)
+    return Surrogate("charge", model.params, xg, tab, c_ell, beta_f, info)
 
 
 def build(params, family: str, **kw) -> Surrogate:

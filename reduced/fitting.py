@@ -7,9 +7,11 @@ The full model's training responses run through dfa_model.sweep's executor (prog
 bar on stderr). The surrogate's maps stay as built (families.py); only its few free
 numbers are fitted to the residuals of the stroke records (RMS error relative to each
 run's stroke range) and of the unzipping speeds, by least squares (lumped) or a bounded
-scalar search on a Huber loss (charge); info['fitted'] reports that Huber cost for both:
-  charge   ell, the length over which the moving front renews its layer (the
-           front layer's rates themselves are the full model's: frozen.front_rates)
+Nelder-Mead search on a Huber loss (charge); info['fitted'] reports that Huber cost for both:
+  charge   c_ell: how far the moving front goes to renew its layer, ell = c_ell w_f
+           for a layer of width w_f, and beta_f: the share of its deficit the layer
+           finds again when the front comes back (the width and the layer's rates
+           themselves are the full model's: frozen.front_layer)
   lumped   a force scale and a charge-rate scale (the refinement of the circuit's
            geometry-and-materials values)
 """
@@ -26,10 +28,11 @@ from dfa_model.parameters import Parameters
 from dfa_model.waveforms import build_protocol
 
 from . import families
-from .compare import compare, rms_difference, speed_error
+from .compare import compare, hold_speed, rms_difference, speed_error
 from .kernel import A_F, A_Q, B_F, B_V, C0, C1, C2
 
 MIN_RANGE = 20e-6   # m: runs whose stroke moves less carry no information on the fit
+MIN_SPEED = 1e-6    # m/s: a slower hold (an inversion's per-period peaks) has no speed to match
 HUBER = 0.02        # residual (2 % of range, 4 % of speed) beyond which the charge fit's loss is linear
 
 
@@ -116,12 +119,13 @@ def full_runs(params: Parameters, conditions, executor=None, progress=True, desc
 def _apply(base, family, theta):
     s = base
     if family == "charge":
-        s = type(base)(base.family, base.params, base.x_grid, base.tables, math.exp(theta[0]), base.info)
+        s = type(base)(base.family, base.params, base.x_grid, base.tables, c_ell=math.exp(theta[0]),
+                       beta_f=theta[1], info=base.info)
     else:
         tab = base.tables.copy()
         tab[:, [C0, C1, C2]] *= theta[0]
         tab[:, [A_Q, B_V, A_F, B_F]] *= theta[1]
-        s = type(base)(base.family, base.params, base.x_grid, tab, 1.0, base.info)
+        s = type(base)(base.family, base.params, base.x_grid, tab, info=base.info)
     return s
 
 
@@ -131,11 +135,12 @@ def _residuals(s, conditions, fulls):
         rng = full.trace.max() - full.trace.min()
         if rng < MIN_RANGE:
             continue
-        red = s.simulate(c.protocol(), c.force)
+        proto = c.protocol()
+        red = s.simulate(proto, c.force)
         r.append(rms_difference(red.trace, full.trace) / rng)
-        us = full.unzipping_speed
-        if us > 0:
-            r.append(0.5 * (red.unzipping_speed / us - 1.0))
+        us = hold_speed(full, proto)
+        if us > MIN_SPEED:
+            r.append(0.5 * (hold_speed(red, proto) / us - 1.0))
     return np.asarray(r)
 
 
@@ -149,9 +154,10 @@ def fit(params: Parameters, family: str = "charge", envelope: Envelope | None = 
     base = families.build(params, family, n_grid=n_grid)
     fulls = full_runs(base.params, envelope.training, executor, progress, "training runs")
     if family == "charge":
-        # from the physical layer length (families.default_ell), within 1 um - 1 m
-        theta0 = np.array([math.log(base.ell)])
-        lo, hi = [math.log(1e-6)], [math.log(1.0)]
+        # from the layer's own width (ell = w_f: c_ell = 1) and a layer that keeps its
+        # whole deficit when the front comes back (beta_f = 1)
+        theta0 = np.array([math.log(base.c_ell), base.beta_f])
+        lo, hi = [math.log(0.05), 0.0], [math.log(20.0), 1.0]
     else:
         theta0 = np.array([1.0, 1.0])
         lo, hi = [0.3, 0.1], [3.0, 10.0]
@@ -162,12 +168,13 @@ def fit(params: Parameters, family: str = "charge", envelope: Envelope | None = 
         r = np.abs(_residuals(_apply(base, family, th), envelope.training, fulls))
         return float(np.sum(np.where(r <= HUBER, 0.5 * r * r, HUBER * (r - 0.5 * HUBER))))
     if family == "charge":
-        # one number: a bounded scalar search (the cost carries the integrator's noise,
-        # which finite-difference gradients of least_squares stall on)
-        from scipy.optimize import minimize_scalar
-        sol = minimize_scalar(lambda u: cost([u]), bounds=(lo[0], hi[0]), method="bounded",
-                              options={"xatol": 0.01})
-        theta, cost_after = np.array([sol.x]), float(sol.fun)
+        # two numbers, a bounded Nelder-Mead search (the cost carries the integrator's
+        # noise, which finite-difference gradients of least_squares stall on)
+        from scipy.optimize import minimize
+        simplex = [theta0, theta0 + [0.5, 0.0], theta0 + [0.0, -0.5]]
+        sol = minimize(cost, theta0, method="Nelder-Mead", bounds=list(zip(lo, hi)),
+                       options={"xatol": 0.02, "fatol": 2e-6, "maxfev": 80, "initial_simplex": simplex})
+        theta, cost_after = np.asarray(sol.x), float(sol.fun)
     else:
         sol = least_squares(lambda th: _residuals(_apply(base, family, th), envelope.training, fulls), theta0,
                             bounds=(lo, hi), diff_step=1e-3, x_scale=[0.1, 0.1], max_nfev=60)

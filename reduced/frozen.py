@@ -13,10 +13,11 @@ import numpy as np
 from dfa_model import DFAModel, Parameters
 from dfa_model.equations import R_I
 
-from .kernel import A_F, A_Q, B_F, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB
+from .kernel import A_F, A_Q, B_F, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB, W_F
 
 V_REF = 1000.0     # V: evaluation amplitude (the maps are exact quadratic/affine forms)
 N_FRONT = 41       # grid points of the front layer's rates (about 25 ms each)
+W_F_MIN = 0.5      # the front layer's least width, in u0
 
 
 def as_model(params) -> DFAModel:
@@ -33,6 +34,12 @@ def as_model(params) -> DFAModel:
         raise ValueError("scheme: the surrogates are fitted to the 'continuum' or 'continuum-p0' schemes, "
                          "not 'paper'")
     return model
+
+
+def u0(model: DFAModel) -> float:
+    """The zipped liquid's effective thickness t_lz + 2 eps_l t_f / eps_f (m)."""
+    p = model.params
+    return float(p.t_lz + 2.0 * p.eps_l * p.t_f / p.eps_f)
 
 
 def q_scale(model: DFAModel) -> float:
@@ -92,25 +99,34 @@ def zipped_rates(model: DFAModel):
     return float(a), float(b)
 
 
-def front_rates(model: DFAModel, x: float, zipped=None):
-    """(a_f, b_f) of the front layer at stroke x: the one-pole model b_f / (s - a_f) of
-    the force-weighted charge h^T q / h^T 1 (h: force_sensitivity; zipped material has
-    h = 0, the force acts through the few elements at the front) whose Markov parameter
-    (h^T B / h^T 1: the charging rate, which sets the ripple under fast inversion) and DC
-    gain (-h^T A^-1 B / h^T 1: the steady charge) are the full model's (moment matching
-    at s = infinity and s = 0). Where no element is at the front (h = 0), zipped rates
-    (`zipped`: zipped_rates(model), if the caller has them)."""
+def front_layer(model: DFAModel, x: float, zipped=None):
+    """(a_f, b_f, w_f) of the front layer at stroke x.
+
+    (a_f, b_f): the one-pole model b_f / (s - a_f) of the force-weighted charge
+    h^T q / h^T 1 (h: force_sensitivity; zipped material has h = 0, the force acts
+    through the material just beyond the front) whose Markov parameter (h^T B / h^T 1:
+    the charging rate, which sets the ripple under fast inversion) and DC gain
+    (-h^T A^-1 B / h^T 1: the steady charge) are the full model's (moment matching at
+    s = infinity and s = 0).
+    w_f: the layer's width, the force-weighted mean distance of that material beyond
+    the front, sum h_j (s_j - l_z) / sum h_j (m). It sets how far the front must move to
+    replace the layer with zipped material; it shrinks from 5-8 u0 with the front near the hinge
+    to nothing at the electrode end, as the gap opens ever faster beyond the front.
+    Where no material is at the front (h = 0), zipped rates (`zipped`: zipped_rates(model),
+    if the caller has them) and w_f = NaN."""
     A, B = electrical_lti(model, x)
     h = force_sensitivity(model, x)
     H = h.sum()
     a, b = zipped if zipped is not None else zipped_rates(model)
     if not abs(H) > 1e-9 * np.abs(h).sum() or not np.isfinite(H):
-        return a, b
+        return a, b, float("nan")
+    s = model.element_edges()[: len(h)]      # the charge states sit at the element edges
+    w_f = float(h @ (s - float(model.kin.lz(x)))) / H
     m0 = float(h @ B) / H
     g0 = float(h @ np.linalg.solve(A, -B)) / H
     if not (m0 * b > 0 and g0 * b > 0):     # a front that does not charge like a layer
-        return a, b
-    return -m0 / g0, m0
+        return a, b, w_f
+    return -m0 / g0, m0, w_f
 
 
 def _current(model: DFAModel, x, V, q, xdot):
@@ -127,7 +143,7 @@ def uniform_charge_tables(model: DFAModel, n_grid: int = 161) -> tuple[np.ndarra
     """Tables over x in [0, x_e] of the full model with a uniform interface charge q:
     F_e = c0 V^2 + c1 V q + c2 q^2, current = i0 V + i1 q + xdot (j0 V + j1 q),
     dl_z/dx; the charge columns hold the zipped material's rates (a, b) and the front
-    layer's (a_f, b_f: front_rates)."""
+    layer's (a_f, b_f) and its width w_f (front_layer)."""
     x_e = model.kin.x_e
     xg = np.linspace(0.0, x_e, n_grid)
     n = model.n_states
@@ -151,7 +167,13 @@ def uniform_charge_tables(model: DFAModel, n_grid: int = 161) -> tuple[np.ndarra
     tab[:, A_Q], tab[:, B_V] = a, b
     # the front layer's rates on a coarser grid (each point solves the charge system)
     xf = np.linspace(0.0, x_e, N_FRONT)
-    af, bf = np.array([front_rates(model, x, (a, b)) for x in xf]).T
+    af, bf, wf = np.array([front_layer(model, x, (a, b)) for x in xf]).T
     tab[:, A_F], tab[:, B_F] = np.interp(xg, xf, af), np.interp(xg, xf, bf)
+    # no layer at the ends (nothing zipped, or all of it): the neighbours' width; at least
+    # W_F_MIN u0, where the layer ends (the front on the electrode end, a stated breakdown)
+    # and the renewal rate |dl_z/dt| / ell would otherwise grow without bound
+    ok = np.isfinite(wf) & (wf > 0)
+    wf = np.interp(xf, xf[ok], wf[ok]) if ok.any() else np.ones_like(xf)
+    tab[:, W_F] = np.maximum(np.interp(xg, xf, wf), W_F_MIN * u0(model))
     tab[:, DLZ] = model.kin.dlz_dx(xg)
     return xg, tab

@@ -7,9 +7,14 @@ All families share one structure (the states are named in `state_names`):
     q_z    interface charge of zipped material (C/m^2)    dq_z/dt = a(x) q_z + b(x) V
     q_d    front-layer charge deficit q_z - q_f (C/m^2), only if the front layer's
            rates differ from zipped material's: the front layer's charge q_f follows
-           dq_f/dt = a_f(x) q_f + b_f(x) V + |dl_z/dt| / ell (q_z - q_f)
-           (its own rates, renewed by zipped material as the front moves), so
-           dq_d/dt = (a - a_f) q_z + a_f q_d + (b - b_f) V - |dl_z/dt| / ell q_d
+           dq_f/dt = a_f(x) q_f + b_f(x) V + |dl_z/dt| / ell(x) (q_f* - q_f)
+           (its own rates, renewed as the front moves over ell(x) = c_ell w_f(x), w_f
+           the layer's width, with the charge q_f* of the material it moves onto), so
+           dq_d/dt = (a - a_f) q_z + a_f q_d + (b - b_f) V - |dl_z/dt| / ell(x) (q_d - q_d*)
+           with q_d* = q_z - q_f* = 0 retreating (zipped material) and
+           beta_f (1 - b_f/b) q_z advancing (the material beyond the front keeps a share
+           beta_f of the deficit of a layer charged at its own rates: a front that comes
+           back finds part of its layer)
     F_e    = c0(x) V^2 + c1(x) V (q_z - q_d) + c2(x) (q_z - q_d)^2
     current = i0(x) V + i1(x) q_z + dx/dt (j0(x) V + j1(x) q_z)   (no capacitive spike at a jump)
 
@@ -32,10 +37,10 @@ from dfa_model.trace import StrokeTrace
 from dfa_model.waveforms import DC, Bipolar, Load, Protocol, Unipolar, merge
 
 from . import kernel
-from .kernel import A_F, A_Q, B_F, B_V, NTAB, NY, P_AVG, P_B, P_ELL, P_FRONT, P_K, P_M, P_XE
+from .kernel import A_F, A_Q, B_F, B_V, NTAB, NY, P_AVG, P_B, P_BETA, P_FRONT, P_K, P_M, P_XE, W_F
 
 FORMAT = "dfa-surrogate"
-VERSION = 2     # 2: front-layer rates a_f, b_f as table columns (1 had a fixed share kappa)
+VERSION = 3     # 3: front-layer width w_f column, renewal (c_ell, beta_f) (2: one length ell; 1: kappa)
 _PURE_WAVEFORMS = (DC, Bipolar, Unipolar)   # segments a function of their fields and the stage duration
 _SEG_CACHE = 20_000                         # largest protocol (segments) whose inputs are kept
 
@@ -77,11 +82,14 @@ class Surrogate:
     family   'lumped' or 'charge'
     params   the actuator (dfa_model Parameters) the maps were computed for
     x_grid, tables  the maps of the stroke (kernel.py columns)
-    ell      front-layer renewal length (m): how far the front moves to renew its layer
+    c_ell    the front renews its layer as it moves by ell(x) = c_ell w_f(x) (w_f: the
+             layer's width, a table column)
+    beta_f   the share of a layer's deficit the material beyond the front keeps (what an
+             advancing front renews the layer with)
     info     provenance: how the maps were built and fitted, training errors
     """
 
-    def __init__(self, family, params: Parameters, x_grid, tables, ell=1.0, info=None):
+    def __init__(self, family, params: Parameters, x_grid, tables, c_ell=1.0, beta_f=1.0, info=None):
         self.family = family
         self.params = params
         self.x_grid = np.ascontiguousarray(x_grid, dtype=float)
@@ -89,7 +97,10 @@ class Surrogate:
         if self.tables.shape != (len(self.x_grid), NTAB):
             raise ValueError(f"tables: expected shape ({len(self.x_grid)}, {NTAB}), got {self.tables.shape}")
         self.x_e = float(self.x_grid[-1])
-        self.ell = float(ell)
+        self.c_ell, self.beta_f = float(c_ell), float(beta_f)
+        # the tables the kernel runs on: w_f replaced by the renewal length
+        self._ktab = self.tables.copy()
+        self._ktab[:, W_F] = self.renewal_length(self.tables[:, W_F])
         self.info = dict(info or {})
         t = self.tables      # a front layer with rates of its own makes q_d a state
         self._front = bool(np.any(t[:, A_F] != t[:, A_Q]) or np.any(t[:, B_F] != t[:, B_V]))
@@ -120,8 +131,13 @@ class Surrogate:
         p = self.params
         out = np.zeros(kernel.NPAR)
         out[P_XE], out[P_B], out[P_M], out[P_K] = self.x_e, p.b, p.m, p.k + k_extra
-        out[P_FRONT], out[P_ELL], out[P_AVG] = float(self.has_deficit), self.ell, 1.0 if averaged else 0.0
+        out[P_FRONT], out[P_AVG] = float(self.has_deficit), 1.0 if averaged else 0.0
+        out[P_BETA] = self.beta_f
         return out
+
+    def renewal_length(self, w_f):
+        """ell = c_ell w_f (m): how far the front moves to renew a layer of width w_f."""
+        return self.c_ell * np.asarray(w_f, dtype=float)
 
     def q_scale(self) -> float:
         p = self.params
@@ -198,7 +214,7 @@ class Surrogate:
         h0 = min(1e-4, float(tb[-1] - tb[0]))
         while True:
             rec = np.empty((cap, kernel.NREC))
-            status, rows, steps, y_end = kernel.integrate(tb, v0, vs, f0, fs, w2, y, self.tables, par,
+            status, rows, steps, y_end = kernel.integrate(tb, v0, vs, f0, fs, w2, y, self._ktab, par,
                                                           self.scales(), rtol, h0, rec, max_steps)
             if status == kernel.FULL and cap < 16_000_000:
                 cap *= 4
@@ -216,7 +232,7 @@ class Surrogate:
         y[self._index()] = xs
         y[4], y[5] = V, F
         ydot = np.zeros(NY)
-        Fe, I = kernel.evaluate(y, V * V if W is None else W, self.tables, self.par(), ydot, np.empty(NTAB),
+        Fe, I = kernel.evaluate(y, V * V if W is None else W, self._ktab, self.par(), ydot, np.empty(NTAB),
                                 kernel.AUTO)
         return ydot[self._index()], I
 
@@ -242,7 +258,7 @@ class Surrogate:
 
         def net(x):
             y = np.array([x, 0.0, q_z, q_d, V, F])
-            Fe, _ = kernel.evaluate(y, V * V, self.tables, par, ydot, rw, kernel.FREE)
+            Fe, _ = kernel.evaluate(y, V * V, self._ktab, par, ydot, rw, kernel.FREE)
             return Fe - F - self.params.k * x
         xs = np.linspace(0.0, self.x_e, 401)
         vals = np.array([net(x) for x in xs])
@@ -280,7 +296,8 @@ class Surrogate:
     def to_dict(self) -> dict:
         return {"format": FORMAT, "version": VERSION, "family": self.family, "params_toml": self.params.to_toml(),
                 "x_grid": self.x_grid.tolist(), "tables": self.tables.tolist(),
-                "ell": self.ell, "states": self.state_names, "info": self.info}
+                "c_ell": self.c_ell, "beta_f": self.beta_f,
+                "states": self.state_names, "info": self.info}
 
     def save(self, path) -> None:
         """Write the surrogate as JSON (loads back with reduced.load)."""
@@ -300,12 +317,13 @@ def from_dict(d: dict) -> Surrogate:
     if d.get("version") != VERSION:
         raise ValueError(f"surrogate file version {d.get('version')!r}; this toolkit reads version {VERSION}")
     try:
-        s = Surrogate(d["family"], params_from_dict(tomllib.loads(d["params_toml"]), "surrogate file"), d["x_grid"], d["tables"], d["ell"],
+        params = params_from_dict(tomllib.loads(d["params_toml"]), "surrogate file")
+        s = Surrogate(d["family"], params, d["x_grid"], d["tables"], d["c_ell"], d["beta_f"],
                       d.get("info"))
     except KeyError as exc:
         raise ValueError(f"surrogate file: missing key {exc.args[0]!r}") from None
-    if not (np.all(np.isfinite(s.tables)) and np.all(np.diff(s.x_grid) > 0) and math.isfinite(s.ell)
-            and s.ell > 0):
+    if not (np.all(np.isfinite(s.tables)) and np.all(np.diff(s.x_grid) > 0) and s.c_ell > 0
+            and 0.0 <= s.beta_f <= 1.0 and np.all(s._ktab[:, W_F] > 0) and np.all(np.isfinite(s._ktab))):
         raise ValueError("surrogate file: tables, grid or deficit parameters are corrupt")
     return s
 
