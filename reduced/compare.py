@@ -57,13 +57,18 @@ def hold_period(protocol):
     return None
 
 
+def hold_span(protocol):
+    """(t0, t1) of the hold stage, or the whole protocol."""
+    return protocol.stage_span("hold") or (0.0, protocol.duration)
+
+
 def hold_speed(res, protocol) -> float:
     """Unzipping speed over the hold (m/s; module docstring): Sec. 3.1 for DC, the
     per-period peak stroke's under a square wave with at least two whole periods."""
     period = hold_period(protocol)
     if period is None:
         return res.unzipping_speed
-    t0, t1 = protocol.stage_span("hold") or (0.0, protocol.duration)
+    t0, t1 = hold_span(protocol)
     c = cycles(res.trace, period, t0, min(t1, res.trace.t1))
     if len(c) < 2:
         return res.unzipping_speed
@@ -72,7 +77,7 @@ def hold_speed(res, protocol) -> float:
 
 
 def _metrics(res, params, protocol, F, period):
-    span = protocol.stage_span("hold") or (0.0, protocol.duration)
+    span = hold_span(protocol)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicsWarning)
         x_static = equilibrium_stroke(params, protocol.amplitude, F, warn=False)

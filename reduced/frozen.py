@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from dfa_model import DFAModel, Parameters
-from dfa_model.equations import R_I
+from dfa_model.equations import R_I, U0
 
 from .kernel import A_F, A_Q, B_F, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB, W_F
 
@@ -38,8 +38,7 @@ def as_model(params) -> DFAModel:
 
 def u0(model: DFAModel) -> float:
     """The zipped liquid's effective thickness t_lz + 2 eps_l t_f / eps_f (m)."""
-    p = model.params
-    return float(p.t_lz + 2.0 * p.eps_l * p.t_f / p.eps_f)
+    return float(model.mat[U0])
 
 
 def q_scale(model: DFAModel) -> float:

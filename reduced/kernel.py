@@ -20,14 +20,14 @@ import numpy as np
 from numba import njit
 
 # table columns (per grid point)
-# (W_F: the front layer's width w_f in a surrogate's tables, its renewal length ell(x) in
-# the tables the kernel is handed: Surrogate.renewal_length)
+# (W_F: the front layer's width w_f)
 C0, C1, C2, A_Q, B_V, I0, I1, J0, J1, DLZ, A_F, B_F, W_F = range(13)
 NTAB = 13
 # parameters (P_FRONT: 1.0 when the front layer differs from zipped material: q_d is a state;
-# P_BETA: the share of the layer's own deficit carried by the material beyond the front)
-P_XE, P_B, P_M, P_K, P_FRONT, P_AVG, P_BETA = range(7)
-NPAR = 7
+# P_CELL: the renewal length over the layer's width, ell = c_ell w_f; P_BETA: the share of
+# the layer's own deficit carried by the material beyond the front)
+P_XE, P_B, P_M, P_K, P_FRONT, P_AVG, P_CELL, P_BETA = range(8)
+NPAR = 8
 NY = 6
 # record columns
 R_T, R_X, R_V, R_Z1, R_Z2, R_VOLT, R_F, R_I, R_FE = range(9)
@@ -91,7 +91,7 @@ def evaluate(y, W, tab, par, ydot, rw, mode):
         # by zipped material (q_f -> q_z); advancing, by the material beyond the front,
         # which carries a share beta of the deficit of material charged at the layer's
         # own rates, q_z - b_f/b q_z (a front that comes back finds its old layer)
-        rate = rw[DLZ] * xd / rw[W_F]
+        rate = rw[DLZ] * xd / (par[P_CELL] * rw[W_F])
         if rate < 0.0:
             renew = -rate * y[3]
         else:

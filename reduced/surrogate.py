@@ -24,7 +24,6 @@ families.py). Inputs `voltage`, `force`; outputs `stroke`, `current`.
 from __future__ import annotations
 
 import json
-import math
 import time
 from functools import cached_property
 
@@ -37,7 +36,7 @@ from dfa_model.trace import StrokeTrace
 from dfa_model.waveforms import DC, Bipolar, Load, Protocol, Unipolar, merge
 
 from . import kernel
-from .kernel import A_F, A_Q, B_F, B_V, NTAB, NY, P_AVG, P_B, P_BETA, P_FRONT, P_K, P_M, P_XE, W_F
+from .kernel import A_F, A_Q, B_F, B_V, NTAB, NY, P_AVG, P_B, P_BETA, P_CELL, P_FRONT, P_K, P_M, P_XE, W_F
 
 FORMAT = "dfa-surrogate"
 VERSION = 3     # 3: front-layer width w_f column, renewal (c_ell, beta_f) (2: one length ell; 1: kappa)
@@ -98,9 +97,6 @@ class Surrogate:
             raise ValueError(f"tables: expected shape ({len(self.x_grid)}, {NTAB}), got {self.tables.shape}")
         self.x_e = float(self.x_grid[-1])
         self.c_ell, self.beta_f = float(c_ell), float(beta_f)
-        # the tables the kernel runs on: w_f replaced by the renewal length
-        self._ktab = self.tables.copy()
-        self._ktab[:, W_F] = self.renewal_length(self.tables[:, W_F])
         self.info = dict(info or {})
         t = self.tables      # a front layer with rates of its own makes q_d a state
         self._front = bool(np.any(t[:, A_F] != t[:, A_Q]) or np.any(t[:, B_F] != t[:, B_V]))
@@ -132,12 +128,8 @@ class Surrogate:
         out = np.zeros(kernel.NPAR)
         out[P_XE], out[P_B], out[P_M], out[P_K] = self.x_e, p.b, p.m, p.k + k_extra
         out[P_FRONT], out[P_AVG] = float(self.has_deficit), 1.0 if averaged else 0.0
-        out[P_BETA] = self.beta_f
+        out[P_CELL], out[P_BETA] = self.c_ell, self.beta_f
         return out
-
-    def renewal_length(self, w_f):
-        """ell = c_ell w_f (m): how far the front moves to renew a layer of width w_f."""
-        return self.c_ell * np.asarray(w_f, dtype=float)
 
     def q_scale(self) -> float:
         p = self.params
@@ -214,7 +206,7 @@ class Surrogate:
         h0 = min(1e-4, float(tb[-1] - tb[0]))
         while True:
             rec = np.empty((cap, kernel.NREC))
-            status, rows, steps, y_end = kernel.integrate(tb, v0, vs, f0, fs, w2, y, self._ktab, par,
+            status, rows, steps, y_end = kernel.integrate(tb, v0, vs, f0, fs, w2, y, self.tables, par,
                                                           self.scales(), rtol, h0, rec, max_steps)
             if status == kernel.FULL and cap < 16_000_000:
                 cap *= 4
@@ -232,7 +224,7 @@ class Surrogate:
         y[self._index()] = xs
         y[4], y[5] = V, F
         ydot = np.zeros(NY)
-        Fe, I = kernel.evaluate(y, V * V if W is None else W, self._ktab, self.par(), ydot, np.empty(NTAB),
+        Fe, I = kernel.evaluate(y, V * V if W is None else W, self.tables, self.par(), ydot, np.empty(NTAB),
                                 kernel.AUTO)
         return ydot[self._index()], I
 
@@ -258,7 +250,7 @@ class Surrogate:
 
         def net(x):
             y = np.array([x, 0.0, q_z, q_d, V, F])
-            Fe, _ = kernel.evaluate(y, V * V, self._ktab, par, ydot, rw, kernel.FREE)
+            Fe, _ = kernel.evaluate(y, V * V, self.tables, par, ydot, rw, kernel.FREE)
             return Fe - F - self.params.k * x
         xs = np.linspace(0.0, self.x_e, 401)
         vals = np.array([net(x) for x in xs])
@@ -323,7 +315,7 @@ def from_dict(d: dict) -> Surrogate:
     except KeyError as exc:
         raise ValueError(f"surrogate file: missing key {exc.args[0]!r}") from None
     if not (np.all(np.isfinite(s.tables)) and np.all(np.diff(s.x_grid) > 0) and s.c_ell > 0
-            and 0.0 <= s.beta_f <= 1.0 and np.all(s._ktab[:, W_F] > 0) and np.all(np.isfinite(s._ktab))):
+            and 0.0 <= s.beta_f <= 1.0 and np.all(s.tables[:, W_F] > 0)):
         raise ValueError("surrogate file: tables, grid or deficit parameters are corrupt")
     return s
 

@@ -126,8 +126,7 @@ def test_front_layer_width_is_a_continuum_property():
 def test_returning_front_finds_its_layer():
     """Under a unipolar train the front leaves and comes back every period: with beta_f = 0
     its layer is renewed with zipped charge both ways and the per-period peak is lost
-    faster than with beta_f = 1 (the layer's own deficit comes back), and the fitted
-    share lies between the two."""
+    faster than with beta_f = 1 (the layer's own deficit comes back)."""
     p = preset("vshape-table1")
     proto = Protocol.single(Unipolar(5500.0, 5.0, 0.5), 20.0)
     speeds = [hold_speed(reduced.charge(p, beta_f=b).simulate(proto, 4.0), proto) for b in (0.0, 1.0)]
