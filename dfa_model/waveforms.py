@@ -75,6 +75,10 @@ def merge(a: Piecewise, b: Piecewise):
     """Common breakpoints of two piecewise signals on the same span. A constant b over
     a's span (a constant load, the common case) adds no breakpoints and is not looked up."""
     const_b = len(b.v0) == 1 and b.slope[0] == 0.0 and b.t[0] <= a.t[0] and b.t[-1] >= a.t[-1]
+    if const_b and len(a.t) > 1 and (a.t[1:] - a.t[:-1]).min() > 1e-13:
+        # a's own breakpoints, already clean (every stock waveform's): its pieces as they are
+        n = len(a.v0)
+        return a.t, a.v0, a.slope, np.full(n, b.v0[0]), np.zeros(n)
     t = np.unique(a.t) if const_b else np.union1d(a.t, b.t)
     t = t[(t >= a.t[0]) & (t <= a.t[-1])]
     # drop breakpoints closer than 1e-13 s (float noise of periodic grids)
@@ -131,7 +135,7 @@ def _square(duration, period, levels):
     acc = np.cumsum([frac for frac, _ in levels])
     k = np.arange(n_per)[:, None]
     t = np.concatenate([[0.0], (k * period + acc[None, :] * period).ravel()])
-    v = np.tile([lev for _, lev in levels], n_per).astype(float)
+    v = np.broadcast_to(np.array([lev for _, lev in levels], float), (n_per, len(levels))).ravel()
     keep = t[1:] < duration - 1e-12
     n = int(np.sum(keep)) + 1
     t = np.concatenate([t[:n], [duration]])

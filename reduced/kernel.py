@@ -60,8 +60,16 @@ def evaluate(y, W, tab, par, ydot, rw, mode):
     rests on a stop), AUTO (a stop holds the stroke when the force pushes into it: the
     right-hand side python-control integrates). Returns (electrostatic force, current)."""
     xe = par[P_XE]
+    _row(tab, xe, min(max(y[0], 0.0), xe), rw)
+    return _rhs(y, W, rw, par, ydot, mode)
+
+
+@njit(cache=True, inline="always")
+def _rhs(y, W, rw, par, ydot, mode):
+    """evaluate's right-hand side from the maps' row rw at y's stroke (the Jacobian's
+    charge columns share one row: only x moves the maps)."""
+    xe = par[P_XE]
     x = min(max(y[0], 0.0), xe)
-    _row(tab, xe, x, rw)
     V = y[4]
     VV = W if par[P_AVG] > 0.0 else V * V
     qf = y[2] - y[3]
@@ -180,6 +188,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
     M = np.empty((NY, NY))
     piv = np.empty(NY, dtype=np.int64)
     rw = np.empty(NTAB)
+    rw0 = np.empty(NTAB)
     nrec = rec.shape[0]
     xe = par[P_XE]
     d = 1.0 / (2.0 + math.sqrt(2.0))
@@ -238,6 +247,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
             # a fresh Jacobian every step: reusing it (a W-method keeps its order) saved
             # evaluations but let the error estimate miss the charge's error - it took
             # more steps for a 7x larger stroke error (measured on the standard protocol)
+            _row(tab, xe, min(max(y[0], 0.0), xe), rw0)
             for c in range(nc):
                 j = cols[c]
                 dj = 1e-7 * max(abs(y[j]), sc[j])
@@ -246,7 +256,10 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, sc, rtol, h0, rec, max_steps
                 for i in range(NY):
                     yt[i] = y[i]
                 yt[j] += dj
-                evaluate(yt, W, tab, par, ft, rw, mode)
+                if j == 0:
+                    evaluate(yt, W, tab, par, ft, rw, mode)
+                else:
+                    _rhs(yt, W, rw0, par, ft, mode)
                 for i in range(4):
                     J[i, j] = (ft[i] - F0[i]) / dj
             if mode == HELD:
