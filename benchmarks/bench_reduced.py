@@ -12,6 +12,7 @@ Goals (issue 9): (1) >= 20x, (2) >= 1000x. Also prints the errors of each pair.
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import statistics
 import sys
@@ -29,11 +30,17 @@ warnings.simplefilter("ignore", PhysicsWarning)
 
 
 def median_time(fn, n):
+    """Median wall time of n calls, the garbage collector off while each runs (as timeit
+    does: a collection of another call's garbage would be charged to this one)."""
     ts = []
     for _ in range(n):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
+        gc.disable()
+        try:
+            t0 = time.perf_counter()
+            fn()
+            ts.append(time.perf_counter() - t0)
+        finally:
+            gc.enable()
     return statistics.median(ts)
 
 
@@ -52,13 +59,17 @@ def main():
     full = simulate(p, proto, load=5.0)
     red = s.simulate(proto, 5.0)
     # both timed through the metric users read (the trace and the window included)
-    t_full = median_time(lambda: simulate(p, proto, load=5.0).unzipping_speed, a.repeats)
-    t_red = median_time(lambda: s.simulate(proto, 5.0).unzipping_speed, a.repeats * 10)
 
     def fresh():   # a protocol the surrogate has not seen: its inputs built too
         s._inputs.clear()
         return s.simulate(proto, 5.0).unzipping_speed
-    t_fresh = median_time(fresh, a.repeats * 10)
+    # interleaved rounds (the machine's load drifts: each median sees the same periods)
+    tf, tr, tn = [], [], []
+    for _ in range(a.repeats):
+        tf.append(median_time(lambda: simulate(p, proto, load=5.0).unzipping_speed, 1))
+        tr.append(median_time(lambda: s.simulate(proto, 5.0).unzipping_speed, 10))
+        tn.append(median_time(fresh, 10))
+    t_full, t_red, t_fresh = statistics.median(tf), statistics.median(tr), statistics.median(tn)
     rng = full.trace.max() - full.trace.min()
     print("\n(1) standard protocol, simulate() + unzipping_speed, median")
     print(f"    full model  {t_full * 1e3:8.3f} ms")

@@ -295,8 +295,9 @@ def plot(rows, conditions, case, summary, path, meta):
                         if lo < edge < hi:
                             a.axvline(edge, color="0.75", lw=0.6, zorder=0)
                     if a is a_sp:
-                        a.text((min(ii) + max(ii)) / 2, 0.97, f"{fr:g} Hz\nduty {d:g}", transform=a.get_xaxis_transform(),
-                               ha="center", va="top", fontsize=7, color="0.3")
+                        # at the bottom: the off-scale values' labels sit at the top edge
+                        a.text((min(ii) + max(ii)) / 2, 0.03, f"{fr:g} Hz\nduty {d:g}", transform=a.get_xaxis_transform(),
+                               ha="center", va="bottom", fontsize=7, color="0.3")
         for c in nz:
             a.axvline(idx[c], color="0.85", lw=0.6, ls=":", zorder=0)
         a.set_xlim(-0.8, len(conditions) - 0.2)

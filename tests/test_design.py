@@ -128,6 +128,27 @@ def test_recommended_point_meets_spec_on_full_model(design):
         assert d[k] is getattr(d, k)
 
 
+def test_recommendation_the_full_model_rejects_moves_into_the_window(surrogate, params):
+    """A tight drift limit at slow inversion, where this (unfitted) surrogate's period-mean
+    stroke sits a few um off the full model's (README, 'Surrogates': slow full-duty
+    inversion): the recommendation 1.25 f_min fails on the full model, so the design
+    walks up the window until the full model meets the limits, and says so."""
+    lim = dict(max_ripple=120e-6, max_drift=1.5e-6, horizon=60.0, slew_rate=700e6, current_limit=20e-3)
+    d = design_inversion(surrogate, V, F, **lim)
+    assert d.feasible and d.verified["meets"], d.reason
+    assert "moved from" in d.reason
+    assert d.frequency > 1.25 * d.f_min * 1.01 and d.frequency <= d.f_max
+    assert d.verified["frequency"] == d.frequency
+    # the reported check is the full model's at the moved frequency
+    _, rf, df = averaged.simulate_full(params, V, F, d.frequency, d.duty, lim["horizon"], d.t_ramp,
+                                       x_static=d.x_static)
+    assert (rf, df) == pytest.approx((d.verified["ripple"], d.verified["drift"]), rel=1e-9)
+    assert rf <= lim["max_ripple"] and abs(df) <= lim["max_drift"]
+    _, rf0, df0 = averaged.simulate_full(params, V, F, 1.25 * d.f_min, d.duty, lim["horizon"], d.t_ramp,
+                                         x_static=d.x_static)
+    assert rf0 > lim["max_ripple"] or abs(df0) > lim["max_drift"]
+
+
 def test_infeasible_spec_says_why(surrogate):
     d = design_inversion(surrogate, V, F, max_ripple=20e-6, max_drift=15e-6, horizon=10.0, slew_rate=2 * V / T_RAMP,
                          verify=False)
