@@ -1,0 +1,290 @@
+"""Measured recordings: reading, validating and interpreting a dataset folder.
+
+A dataset (architecture notes, *contract*) is a folder with `actuator.toml` (the parameter
+file: what is known about the device) and one CSV per test, header
+`time,voltage,force,stroke` (optional `current`; further columns, such as those of
+`dfa simulate --out`, are ignored and listed in the notes), SI units, `#` comment lines
+allowed before the header.
+
+Checks (each failure is one line naming the file and, where there is one, the row as
+its line number in the file):
+- the folder exists, holds `actuator.toml` and at least one CSV;
+- the header has the four columns; every value is a finite number;
+- time starts within one sample of 0 and strictly increases (a repeated or backward time
+  is an error: which sample is right cannot be told);
+- at least MIN_SAMPLES rows;
+- units: a stroke above the actuator's full stroke x_e that would fit as millimetres, a
+  voltage of at most MAX_KV_LOOKING V (kilovolts), a force above MAX_FORCE N;
+- the voltage agrees with itself: every stretch between switches sits on one of the
+  levels +A, 0, -A of the recording's amplitude A (within LEVEL_TOL of A), and the hold
+  (the last stretch) is not 0 V.
+
+Documented handling (listed in Recording.notes, which the diagnosis report states):
+- gaps: a time step above GAP_FACTOR x the median step is kept as it is (the model runs
+  through it; the fit uses the samples there are);
+- a force that varies by more than FORCE_TOL of its mean over the recording is used as a
+  sampled load, else its mean as a constant load;
+- a stroke offset (sensor zero) is not corrected here: it is a nuisance parameter of the
+  fit.
+
+Interpretation: the voltage becomes a Protocol of piecewise-constant levels switched at
+the measured threshold crossings (interpolated between samples, so a 1 kHz recording
+times a switch to well under a millisecond), with the stages 'reset' (up to the last
+switch before the hold) and 'hold' (the final constant level), the paper's routine
+(Sec. 4.2). `Recording.protocol` and `Recording.load` run on the model as they are.
+"""
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .parameters import Parameters, ParameterError
+from .parameters import load as load_parameters
+from .waveforms import DC, Load, Protocol, Sampled, Stage
+
+REQUIRED = ("time", "voltage", "force", "stroke")
+OPTIONAL = ("current",)
+MIN_SAMPLES = 10
+GAP_FACTOR = 5.0          # a step this many times the median step is a gap
+LEVEL_TOL = 0.15          # a voltage stretch within this share of the amplitude of +A, 0 or -A
+FORCE_TOL = 0.05          # a force varying more than this share of its mean is a sampled load
+MAX_KV_LOOKING = 50.0     # a recording whose |voltage| never exceeds this (V) is in kV
+MAX_FORCE = 1000.0        # N: above this a force column is not a DFA load in newtons
+MAX_STROKE = 0.1          # m: no DFA strokes 10 cm (without the actuator: the bound for mm)
+
+
+class RecordingError(ValueError):
+    """A recording or dataset that cannot be used as it is (one line: file, row, what)."""
+
+
+@dataclass
+class Recording:
+    """One measured test. Arrays in SI units; `line` maps sample i to its line in the file."""
+
+    name: str
+    path: Path
+    t: np.ndarray
+    voltage: np.ndarray
+    force: np.ndarray
+    stroke: np.ndarray
+    current: np.ndarray | None
+    line: np.ndarray
+    notes: list = field(default_factory=list)
+    protocol: Protocol | None = None
+    load: Load | None = None
+    amplitude: float = 0.0
+    hold_voltage: float = 0.0
+    reset_end: float = 0.0
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1])
+
+    @property
+    def dt(self) -> float:
+        """Median sample step (s)."""
+        return float(np.median(np.diff(self.t)))
+
+    @property
+    def force_mean(self) -> float:
+        return float(np.mean(self.force))
+
+    def condition(self) -> tuple:
+        """(hold voltage, mean force) rounded to the nearest 10 V and 10 mN: recordings of
+        one condition (repetitions) share it."""
+        return (round(self.hold_voltage, -1), round(self.force_mean, 2))
+
+
+@dataclass
+class Dataset:
+    folder: Path
+    params: Parameters
+    recordings: list
+
+    def conditions(self) -> dict:
+        """condition -> the recordings of it (repetitions), in file order."""
+        out = {}
+        for r in self.recordings:
+            out.setdefault(r.condition(), []).append(r)
+        return out
+
+
+# ------------------------------------------------------------------------ reading
+def _where(path, line=None) -> str:
+    return f"{path.name}, row {line}" if line is not None else path.name
+
+
+def read_csv(path) -> Recording:
+    """Read and check one recording (module docstring); no actuator needed (units are
+    checked against the actuator by read_dataset)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RecordingError(f"{path.name}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
+    lines = text.splitlines()
+    k = 0
+    while k < len(lines) and (not lines[k].strip() or lines[k].lstrip().startswith("#")):
+        k += 1
+    if k == len(lines):
+        raise RecordingError(f"{path.name}: empty (no header row '{','.join(REQUIRED)}')")
+    header = [h.strip().lower() for h in next(csv.reader([lines[k]]))]
+    missing = [c for c in REQUIRED if c not in header]
+    if missing:
+        raise RecordingError(f"{_where(path, k + 1)}: missing column(s) {', '.join(missing)} in the header "
+                             f"'{lines[k].strip()}' (expected {','.join(REQUIRED)}[,current])")
+    dup = sorted({h for h in header if header.count(h) > 1 and h in REQUIRED + OPTIONAL})
+    if dup:
+        raise RecordingError(f"{_where(path, k + 1)}: column(s) {', '.join(dup)} appear more than once")
+    cols = {c: header.index(c) for c in REQUIRED + OPTIONAL if c in header}
+    extra = [h for h in header if h not in cols]
+    rows, line_no = [], []
+    for i, row in enumerate(csv.reader(lines[k + 1:]), start=k + 2):
+        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
+            continue
+        if len(row) < len(header):
+            raise RecordingError(f"{_where(path, i)}: {len(row)} values, the header has {len(header)} columns")
+        vals = []
+        for c, j in cols.items():
+            s = row[j].strip()
+            try:
+                v = float(s)
+            except ValueError:
+                raise RecordingError(f"{_where(path, i)}: {c} is '{s}', not a number") from None
+            if not math.isfinite(v):
+                raise RecordingError(f"{_where(path, i)}: {c} is {s} (values must be finite numbers)")
+            vals.append(v)
+        rows.append(vals)
+        line_no.append(i)
+    if len(rows) < MIN_SAMPLES:
+        raise RecordingError(f"{path.name}: {len(rows)} data rows, at least {MIN_SAMPLES} needed")
+    a = np.array(rows)
+    line = np.array(line_no)
+    data = {c: a[:, n] for n, c in enumerate(cols)}
+    t = data["time"]
+    dt = np.diff(t)
+    bad = np.nonzero(dt <= 0)[0]
+    if bad.size:
+        i = int(bad[0]) + 1
+        what = "repeats" if dt[i - 1] == 0 else "goes back from"
+        raise RecordingError(f"{_where(path, line[i])}: time {t[i]:g} s {what} the previous row's {t[i - 1]:g} s "
+                             f"(time must increase strictly)")
+    step = float(np.median(dt))
+    if abs(t[0]) > 1.5 * step:
+        raise RecordingError(f"{_where(path, line[0])}: time starts at {t[0]:g} s; it must start at 0 at the "
+                             f"start of the protocol (reset stage first)")
+    rec = Recording(path.stem, path, t, data["voltage"], data["force"], data["stroke"], data.get("current"), line)
+    if extra:
+        rec.notes.append(f"ignored column(s) {', '.join(extra)}")
+    gaps = np.nonzero(dt > GAP_FACTOR * step)[0]
+    if gaps.size:
+        spans = ", ".join(f"{t[g]:.4g}-{t[g + 1]:.4g} s" for g in gaps[:5]) + (" ..." if gaps.size > 5 else "")
+        rec.notes.append(f"{gaps.size} gap(s) in time (steps over {GAP_FACTOR:g}x the median {step * 1e3:.3g} ms): "
+                         f"{spans}; kept, the fit uses the samples there are")
+    _check_units(rec)
+    _interpret(rec)
+    return rec
+
+
+def _check_units(rec: Recording, x_e: float | None = None) -> None:
+    p = rec.path
+    vmax = float(np.max(np.abs(rec.voltage)))
+    if vmax <= MAX_KV_LOOKING:
+        i = int(np.argmax(np.abs(rec.voltage)))
+        raise RecordingError(f"{_where(p, rec.line[i])}: voltage peaks at {rec.voltage[i]:g}; SI units (V) expected, "
+                             f"this looks like kilovolts" if vmax > 0 else
+                             f"{p.name}: the voltage is 0 throughout: nothing was applied")
+    fmax = float(np.max(np.abs(rec.force)))
+    if fmax > MAX_FORCE:
+        i = int(np.argmax(np.abs(rec.force)))
+        raise RecordingError(f"{_where(p, rec.line[i])}: force {rec.force[i]:g} N; SI units (N) expected, above "
+                             f"{MAX_FORCE:g} N is not a DFA load")
+    smax = float(np.max(np.abs(rec.stroke)))
+    limit = MAX_STROKE if x_e is None else 1.5 * x_e
+    if smax > limit:
+        i = int(np.argmax(np.abs(rec.stroke)))
+        # millimetres: the value over 1000 fits, and the value itself is far out of reach
+        mm = smax / 1000.0 <= limit and (x_e is None or smax > 10.0 * limit)
+        raise RecordingError(f"{_where(p, rec.line[i])}: stroke {rec.stroke[i]:g}; SI units (m) expected" +
+                             (f" - this looks like millimetres (the actuator's full stroke is {x_e * 1e3:.3g} mm)"
+                              if mm and x_e is not None else " - this looks like millimetres" if mm else
+                              f", above the actuator's reach ({limit:g} m)"))
+
+
+def _interpret(rec: Recording) -> None:
+    """Voltage -> Protocol (levels switched at threshold crossings, module docstring),
+    force -> Load."""
+    p, t, v = rec.path, rec.t, rec.voltage
+    A = float(np.percentile(np.abs(v), 99))
+    # the level of each sample: +1, 0, -1 (half-amplitude thresholds)
+    lev = np.where(v > 0.5 * A, 1, np.where(v < -0.5 * A, -1, 0))
+    sw = np.nonzero(np.diff(lev) != 0)[0]            # switch between sample i and i + 1
+    # a switch's time: where the voltage crosses the midpoint between the two levels
+    t_sw = []
+    for i in sw:
+        mid = 0.5 * A * (lev[i] + lev[i + 1])
+        dv = v[i + 1] - v[i]
+        f = 0.5 if dv == 0 else min(max((mid - v[i]) / dv, 0.0), 1.0)
+        t_sw.append(t[i] + f * (t[i + 1] - t[i]))
+    edges = np.concatenate([[0.0], t_sw, [t[-1]]])
+    starts = np.concatenate([[0], sw + 1])
+    ends = np.concatenate([sw + 1, [len(t)]])
+    levels = []
+    for a, b, s in zip(starts, ends, lev[starts]):
+        seg = v[a:b]
+        # the stretch must sit on its level (ramps at the switches excluded: one sample each side)
+        core = seg[1:-1] if len(seg) > 3 else seg
+        off = np.abs(core - s * A)
+        if off.size and off.max() > LEVEL_TOL * A:
+            j = int(a + (1 if len(seg) > 3 else 0) + np.argmax(off))
+            raise RecordingError(f"{_where(p, rec.line[j])}: voltage {v[j]:g} V at {t[j]:g} s is off every level of "
+                                 f"this recording (+{A:g}, 0, -{A:g} V, within {LEVEL_TOL:.0%}): the voltage column "
+                                 f"contradicts itself")
+        levels.append(float(np.mean(core)) if s != 0 else 0.0)
+    if levels[-1] == 0.0:
+        raise RecordingError(f"{p.name}: the voltage ends at 0 V (from {edges[-2]:g} s): no hold stage to fit")
+    rec.amplitude = A
+    rec.hold_voltage = levels[-1]
+    rec.reset_end = float(edges[-2])
+    stages = []
+    if len(levels) > 1:
+        reset = Sampled(edges[:-2], np.array(levels[:-1]), hold=True)
+        stages.append(Stage(reset, float(edges[-2]), "reset"))
+    stages.append(Stage(DC(levels[-1]), float(edges[-1] - edges[-2]), "hold"))
+    rec.protocol = Protocol(stages)
+    F = rec.force
+    Fm = float(np.mean(F))
+    if np.ptp(F) > FORCE_TOL * max(abs(Fm), 1e-3):
+        rec.load = Load(Sampled(t, F, name="force"))
+        rec.notes.append(f"the force varies ({F.min():.4g}-{F.max():.4g} N): used as a sampled load")
+    else:
+        rec.load = Load(Fm)
+
+
+def read_dataset(folder) -> Dataset:
+    """The actuator and every recording of a dataset folder, checked (module docstring)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise RecordingError(f"{folder}: not a folder")
+    toml = folder / "actuator.toml"
+    if not toml.is_file():
+        raise RecordingError(f"{folder}: no actuator.toml (the parameter file of the device)")
+    try:
+        params = load_parameters(toml)
+    except ParameterError as exc:
+        raise RecordingError(f"actuator.toml: {exc}") from None
+    files = sorted(folder.glob("*.csv"))
+    if not files:
+        raise RecordingError(f"{folder}: no recordings (*.csv)")
+    from .kinematics import make
+    x_e = float(make(params).x_e)
+    recs = []
+    for f in files:
+        r = read_csv(f)
+        _check_units(r, x_e)
+        recs.append(r)
+    return Dataset(folder, params, recs)

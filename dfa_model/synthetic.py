@@ -1,0 +1,106 @@
+"""Synthetic recordings: a truth model with hidden effects, measured like a real rig.
+
+    from dfa_model.synthetic import Measurement, generate_dataset
+    truth = preset("vshape-table1").replace(k=300.0)          # a hidden stiffness
+    generate_dataset("ds/", truth, nominal=preset("vshape-table1"),
+                     conditions=[(6000, 3), (6000, 5), (8000, 5)], repetitions=3, seed=1)
+
+Each recording is the paper's routine (Sec. 4.2): a charge reset (bipolar, 100 % duty, at
+the test amplitude, `reset_frequency`) for `reset` s, then a DC hold for `hold` s, sampled
+at 1 / dt, run on the full model with the truth parameters, then measured:
+- the repetition's liquid resistivity differs from the truth's by a factor
+  exp(N(0, rho_spread)) (rho_l; with the linear law its intercept q_rho and floor rho_min);
+- the laser sensor adds white noise of `noise` m RMS, reads relative to a zero that is off
+  by N(0, offset) m per recording, and rounds to `quantum` m;
+- the voltage channel adds white noise of `voltage_noise` V RMS (levels stay levels).
+The dataset folder gets `actuator.toml` (the *nominal* parameters: what the user knows)
+and one CSV per recording, named V<kV>_F<N>_r<k>.csv; what was drawn (the per-recording
+factors and offsets, the truth) is returned and, if `manifest` is given, written there -
+never into the dataset (the diagnosis must not see it).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .parameters import Parameters
+from .solver import simulate
+from .waveforms import Protocol
+
+
+@dataclass
+class Measurement:
+    noise: float = 2e-6            # sensor white noise, RMS (m)
+    quantum: float = 0.5e-6        # sensor resolution (m)
+    offset: float = 5e-6           # SD of the per-recording sensor zero offset (m)
+    rho_spread: float = 0.03       # SD of log(rho_l) between repetitions
+    voltage_noise: float = 5.0     # voltage channel noise, RMS (V)
+    dt: float = 1e-3               # sample period (s)
+
+    def __post_init__(self):
+        for k, v in asdict(self).items():
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"{k}: got {v!r}, expected a finite number >= 0")
+        if not 1e-6 <= self.dt <= 0.1:
+            raise ValueError(f"dt: got {self.dt!r}, expected a sample period in [1e-6, 0.1] s")
+
+
+def scaled_resistivity(p: Parameters, factor: float) -> Parameters:
+    """p with its liquid resistivity scaled (the constant law's rho_l; the linear law's
+    intercept q_rho and floor rho_min)."""
+    if p.law == "linear":
+        return p.replace(q_rho=p.q_rho * factor, rho_min=p.rho_min * factor)
+    return p.replace(rho_l=p.rho_l * factor)
+
+
+def recording_name(V: float, F: float, rep: int) -> str:
+    return f"V{V / 1e3:g}kV_F{F:g}N_r{rep}"
+
+
+def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = None, conditions=((6000.0, 5.0),),
+                     repetitions: int = 3, reset: float = 3.0, hold: float = 20.0, reset_frequency: float = 30.0,
+                     measurement: Measurement | None = None, seed: int = 0, manifest=None) -> dict:
+    """Write a dataset folder (module docstring); returns what was drawn."""
+    meas = measurement or Measurement()
+    nominal = nominal or truth
+    if not isinstance(repetitions, int) or repetitions < 1:
+        raise ValueError(f"repetitions: got {repetitions!r}, expected an integer >= 1")
+    conditions = [(float(V), float(F)) for V, F in conditions]
+    if not conditions:
+        raise ValueError("conditions: at least one (voltage, force) pair")
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "actuator.toml").write_text("# nominal actuator (synthetic dataset)\n" + nominal.to_toml())
+    rng = np.random.default_rng(seed)
+    t = np.round(np.arange(0.0, reset + hold + meas.dt / 2, meas.dt), 12)
+    drawn = []
+    for V, F in conditions:
+        protocol = Protocol.reset_then_hold(V, hold, reset=reset, reset_frequency=reset_frequency) if reset > 0 \
+            else Protocol.dc(V, hold)
+        for rep in range(1, repetitions + 1):
+            factor = float(np.exp(rng.normal(0.0, meas.rho_spread)))
+            offset = float(rng.normal(0.0, meas.offset))
+            p = scaled_resistivity(truth, factor)
+            res = simulate(p, protocol, load=F, t_eval=t, warn=False)
+            x = res.trace(t)
+            x_meas = x + offset + rng.normal(0.0, meas.noise, t.size)
+            if meas.quantum > 0:
+                x_meas = np.round(x_meas / meas.quantum) * meas.quantum
+            v_meas = protocol.voltage(t) + rng.normal(0.0, meas.voltage_noise, t.size)
+            name = recording_name(V, F, rep)
+            data = np.column_stack([t, v_meas, np.full(t.size, F), x_meas])
+            lines = [f"# synthetic recording {name}: {reset:g} s reset at {reset_frequency:g} Hz, "
+                     f"{hold:g} s hold at {V:g} V against {F:g} N", "time,voltage,force,stroke"]
+            lines += [f"{a:.6f},{b:.6g},{c:.6g},{d:.9g}" for a, b, c, d in data]
+            (folder / f"{name}.csv").write_text("\n".join(lines) + "\n")
+            drawn.append({"recording": name, "voltage": V, "force": F, "repetition": rep,
+                          "rho_factor": factor, "offset": offset})
+    out = {"truth": truth.to_dict(), "nominal": nominal.to_dict(), "measurement": asdict(meas), "seed": seed,
+           "recordings": drawn}
+    if manifest is not None:
+        Path(manifest).write_text(json.dumps(out, indent=1))
+    return out
