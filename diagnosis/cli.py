@@ -1,0 +1,55 @@
+"""dfa diagnose DATASET --out DIR (registered under the entry-point group 'dfa.commands')."""
+from __future__ import annotations
+
+import sys
+import time
+
+
+def register(sub) -> None:
+    from dfa_model import cli as base
+    pd = sub.add_parser("diagnose", help="fit recordings, locate the mismatch, name and model the missing physics")
+    pd.add_argument("dataset", metavar="DATASET", help="a folder with actuator.toml and one CSV per test")
+    pd.add_argument("--out", metavar="DIR", required=True, help="where report.json, report.md and the plots go")
+    pd.add_argument("--workers", type=base._number(1, 1024, integer=True), help="local processes (default: all cores)")
+    pd.add_argument("--scheduler", metavar="ADDRESS", help="run the full model on a dask.distributed scheduler")
+    pd.add_argument("--quiet", action="store_true", help="no progress lines")
+    pd.set_defaults(func=cmd_diagnose)
+
+
+def cmd_diagnose(args) -> int:
+    from dfa_model.fileio import check_writable
+    from dfa_model.recordings import read_dataset
+
+    from .diagnose import diagnose
+    from .fit import local_executor
+    from .report import write
+    from pathlib import Path
+    ds = read_dataset(args.dataset)          # a bad dataset fails before anything is created
+    try:
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"--out: cannot create folder '{args.out}': {exc.strerror}") from None
+    check_writable("--out", Path(args.out) / "report.json")
+    t0 = time.perf_counter()
+    say = None if args.quiet else (lambda s: print(f"[{time.perf_counter() - t0:6.1f} s] {s}", file=sys.stderr,
+                                                   flush=True))
+    if args.scheduler:
+        from distributed import Client
+        client = Client(args.scheduler)
+        executor = client.get_executor()
+    else:
+        executor = local_executor(args.workers)
+    try:
+        D = diagnose(ds, executor=executor, progress=say)
+    finally:
+        if not args.scheduler:
+            executor.shutdown()
+    report = write(D, args.out)
+    print(f"{report['conclusion']}; baseline held-out RMSE "
+          f"{_um(D.baseline.heldout_rmse)}, improved {_um(D.final.heldout_rmse) if D.kept else '-'}; "
+          f"wrote {args.out}/report.json, report.md")
+    return 0
+
+
+def _um(x):
+    return "-" if x is None else f"{x * 1e6:.3g} um"

@@ -1,0 +1,307 @@
+"""Least-squares fit of the full model to recordings, jointly, with nuisance parameters.
+
+Unknowns:
+- the spec's global parameters (diagnosis.model.FreeParameter: rho_l always, plus any
+  nominal value being corrected or a catalog entry's);
+- per training recording, its liquid resistivity factor exp(delta_i) (repetitions of one
+  device differ by a few percent: dfa_model.synthetic.scaled_resistivity), with the prior
+  delta_i ~ N(0, sigma_rep) - so repetition scatter is never taken for missing physics;
+- per recording, the sensor's zero offset: read where the model's actuator rests on its
+  stop (the first sample, a complete unzip), with a prior (sensor_offset) - not the mean
+  residual, which would swallow a static-stroke mismatch.
+
+Cost: sum over training samples of (residual / sigma)^2 + sum delta_i^2 / sigma_rep^2, sigma
+the sensor noise estimated from the data (noise_level). Every `decimate`-th sample enters
+the fit (the noise is white at 1 kHz; the stroke is smooth on that scale); errors are
+reported on all samples. Solver: scipy.optimize.least_squares (trust region, bounds), its
+Jacobian by forward differences with the problem's sparsity (a recording's residuals
+depend on the globals and its own delta only), each evaluation one batch of full-model
+runs through an executor (local processes by default: dfa_model.sweep's convention).
+
+Held out: whole conditions (all repetitions of a load or a voltage, choose_holdout), run
+with the fitted globals; only their nuisance is fitted - each recording's offset and
+resistivity factor, with the same prior - so the held-out error measures the physics,
+not the repetition scatter.
+
+Uncertainty: the Gauss-Newton covariance at the optimum, inflated by the residuals'
+variance over the noise's (when the model misses, > 1) and by their lag-1 correlation
+(1 + r) / (1 - r) (correlated residuals carry fewer independent samples).
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+import warnings
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.sparse import lil_matrix
+
+from dfa_model.parameters import Parameters
+from dfa_model.synthetic import scaled_resistivity
+
+from .model import FreeParameter, apply, start
+
+SIGMA_REP = 0.05     # prior SD of log(rho_l) between repetitions
+DELTA_BOUND = 0.5    # |delta_i| at most (a factor 1.65)
+DECIMATE = 5
+OFFSET_PRIOR = 20e-6 # prior SD of a sensor's zero offset (m)
+FD_STEP = 0.02       # finite-difference step in the fitted coordinates (log: 2 %)
+FAILED = 1e3         # residual (in noise units) of a sample whose run failed: the step is rejected
+
+
+class FitError(ValueError):
+    pass
+
+
+def noise_level(rec) -> float:
+    """Sensor noise (m, RMS) from the recording itself: the robust spread (MAD) of first
+    differences over the second half of the hold, where the stroke moves by far less
+    than the noise per sample; / sqrt(2) (a difference holds two samples' noise)."""
+    t0 = rec.reset_end + 0.5 * (rec.duration - rec.reset_end)
+    x = rec.stroke[rec.t >= t0]
+    d = np.diff(x)
+    if d.size < 10:
+        d = np.diff(rec.stroke)
+    mad = float(np.median(np.abs(d - np.median(d))))
+    sd = mad / 0.6745 / math.sqrt(2.0)
+    if sd == 0.0:   # quantized to steps coarser than the noise: the quantum's own spread
+        q = np.min(np.abs(d[d != 0])) if np.any(d != 0) else 1e-9
+        sd = q / math.sqrt(12.0)
+    return sd
+
+
+def sensor_offset(stroke, x_model, sigma, prior=OFFSET_PRIOR) -> float:
+    """The sensor's zero offset (m): the mean reading where the model's actuator is at rest
+    on its stop (x = 0: the first sample, and after a complete unzip), shrunk towards 0 by
+    its prior N(0, prior). Not the mean over the run: that would also absorb a static-stroke
+    mismatch, the very thing the diagnosis must see."""
+    rest = x_model <= 0.0
+    n = int(np.count_nonzero(rest))
+    return float(np.sum(stroke[rest] - x_model[rest])) / (n + (sigma / prior) ** 2) if n else 0.0
+
+
+def _run(job):
+    """One recording on the full model (module-level: runs in worker processes)."""
+    params, protocol, load, t = job
+    from dfa_model import simulate
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = simulate(params, protocol, load=load, warn=False)
+        return res.trace(t)
+    except Exception as exc:   # a parameter set the model cannot run: the caller rejects the step
+        return f"{type(exc).__name__}: {exc}"
+
+
+class Runner:
+    """Batches of recordings through an executor (None: in this process)."""
+
+    def __init__(self, executor=None):
+        self.executor = executor
+        self.runs = 0
+
+    def __call__(self, jobs):
+        self.runs += len(jobs)
+        if self.executor is None:
+            return [_run(j) for j in jobs]
+        return list(self.executor.map(_run, jobs))
+
+
+def local_executor(workers=None):
+    return ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1)
+
+
+@dataclass
+class FitResult:
+    spec: list
+    base: Parameters                  # the parameters the spec was applied to
+    params: Parameters                # fitted
+    values: dict                      # key -> fitted value
+    stderr: dict                      # key -> standard error (its units)
+    sigma: float                      # sensor noise used (m)
+    train: list                       # recording names
+    heldout: list
+    rho_factors: dict                 # training recording -> exp(delta)
+    offsets: dict                     # recording -> sensor offset (m)
+    simulated: dict                   # recording -> model stroke at every sample (offset added)
+    train_rmse: float
+    heldout_rmse: float | None
+    rss: float                        # sum of squared training residuals over fitted samples (m^2)
+    n: int                            # fitted samples
+    k: int                            # fitted unknowns (globals + deltas + offsets)
+    cost: float
+    wall_time: float
+    runs: int
+    notes: list = field(default_factory=list)
+
+    @property
+    def bic(self) -> float:
+        return self.n * math.log(self.rss / self.n) + self.k * math.log(self.n)
+
+    @property
+    def aic(self) -> float:
+        return self.n * math.log(self.rss / self.n) + 2 * self.k
+
+    def residual(self, rec) -> np.ndarray:
+        """Measured minus model (offset removed) at every sample of `rec` (m)."""
+        return rec.stroke - self.simulated[rec.name]
+
+    def parameters_dict(self) -> dict:
+        return {f.key: {"value": self.values[f.key], "stderr": self.stderr[f.key]} for f in self.spec}
+
+
+def choose_holdout(dataset) -> list:
+    """Conditions to hold out: all recordings at one load (the middle of three or more
+    loads, else the largest of two), or, with one load, at one voltage (likewise); none
+    with a single condition."""
+    conds = list(dataset.conditions())
+    loads = sorted({F for _, F in conds})
+    volts = sorted({V for V, _ in conds})
+    if len(loads) >= 2:
+        F = loads[len(loads) // 2] if len(loads) >= 3 else loads[-1]
+        return [c for c in conds if c[1] == F]
+    if len(volts) >= 2:
+        V = volts[len(volts) // 2] if len(volts) >= 3 else volts[-1]
+        return [c for c in conds if c[0] == V]
+    return []
+
+
+def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0=None):
+    """Least squares over `recs`: the spec's globals (none: base fixed) and one delta per
+    recording, offsets projected out. Returns (x, sol, n, simulated-at-every-sample)."""
+    k, R = len(spec), len(recs)
+    idx = [np.arange(0, len(r.t), decimate) for r in recs]
+    x0 = np.concatenate([np.asarray(z0, float), np.zeros(R) if d0 is None else np.asarray(d0, float)])
+    lo = np.array([f.z_bounds()[0] for f in spec] + [-DELTA_BOUND] * R)
+    hi = np.array([f.z_bounds()[1] for f in spec] + [DELTA_BOUND] * R)
+    x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-9, lo), np.where(np.isfinite(hi), hi - 1e-9, hi))
+    offs = np.concatenate([[0], np.cumsum([len(i) for i in idx])])
+    n = int(offs[-1])
+
+    def simulate_all(x):
+        p = apply(base, spec, x[:k])
+        return runner([(scaled_resistivity(p, math.exp(x[k + j])), r.protocol, r.load, r.t)
+                       for j, r in enumerate(recs)])
+
+    def fun(x):
+        xs = simulate_all(x)
+        out = np.empty(n + R)
+        for j, (r, xm) in enumerate(zip(recs, xs)):
+            sl = slice(offs[j], offs[j + 1])
+            if isinstance(xm, str):
+                out[sl] = FAILED
+                continue
+            out[sl] = (r.stroke[idx[j]] - xm[idx[j]] - sensor_offset(r.stroke, xm, sigma)) / sigma
+        out[n:] = x[k:] / sigma_rep
+        if progress:
+            progress(f"{runner.runs} runs")
+        return out
+
+    last = {}
+
+    def fun_cached(x):
+        key = x.tobytes()
+        if key not in last:
+            last.clear()
+            last[key] = fun(x)
+        return last[key]
+
+    def jac(x):
+        # forward differences of FD_STEP in z (an adaptive solver's output is rough on
+        # the scale of its tolerance: smaller steps measure that, not the derivative);
+        # one batch per global, and one for all deltas at once (disjoint rows)
+        f0 = fun_cached(x)
+        J = lil_matrix((n + R, k + R))
+        for i in range(k):
+            h = FD_STEP if x[i] + FD_STEP <= hi[i] else -FD_STEP
+            xp = x.copy()
+            xp[i] += h
+            d = (fun(xp) - f0) / h
+            for j in range(R):
+                J[offs[j]:offs[j + 1], i] = d[offs[j]:offs[j + 1], None]
+        if R:
+            hs = np.where(x[k:] + FD_STEP <= hi[k:], FD_STEP, -FD_STEP)
+            xp = x.copy()
+            xp[k:] += hs
+            d = fun(xp) - f0
+            for j in range(R):
+                J[offs[j]:offs[j + 1], k + j] = d[offs[j]:offs[j + 1], None] / hs[j]
+                J[n + j, k + j] = 1.0 / sigma_rep
+        return J.tocsr()
+
+    with np.errstate(all="ignore"):
+        sol = least_squares(fun_cached, x0, jac=jac, bounds=(lo, hi), x_scale="jac", ftol=1e-6, xtol=1e-6,
+                            gtol=1e-8, max_nfev=max_nfev, method="trf", tr_solver="lsmr")
+    return sol, n, simulate_all(sol.x)
+
+
+def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=None, sigma_rep=SIGMA_REP,
+        decimate=DECIMATE, z0=None, max_nfev=40, progress=None, warm=None) -> FitResult:
+    """Fit `spec` (list of FreeParameter) to the dataset's training recordings (module
+    docstring). base: the parameters the spec is applied to (default the dataset's
+    nominal actuator); holdout: conditions (V, F) to hold out (default choose_holdout);
+    progress: a callable(str) told of each model evaluation; warm: a FitResult whose
+    per-recording resistivity factors start this fit (a candidate on top of it)."""
+    wall = time.perf_counter()
+    base = base or dataset.params
+    holdout = choose_holdout(dataset) if holdout is None else list(holdout)
+    recs = dataset.recordings
+    train = [r for r in recs if r.condition() not in holdout]
+    held = [r for r in recs if r.condition() in holdout]
+    if not train:
+        raise FitError("holdout: every recording is held out; nothing to fit")
+    runner = Runner(executor)
+    sigma = float(np.median([noise_level(r) for r in recs]))
+    k, R = len(spec), len(train)
+    z_start = start(base, spec) if z0 is None else np.asarray(z0, float)
+    d0 = None if warm is None else [math.log(warm.rho_factors.get(r.name, 1.0)) for r in train]
+    sol, n, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0)
+    x = sol.x
+    notes = []
+    if not sol.success:
+        notes.append(f"the least-squares search stopped before converging ({sol.message})")
+    # covariance of the globals (noise units: the residuals are already / sigma)
+    J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
+    r_fit = sol.fun[:n]
+    dof = max(n - (k + 2 * R), 1)
+    s2 = max(1.0, float(np.sum(r_fit ** 2)) / dof)
+    rho1 = float(np.clip(np.corrcoef(r_fit[:-1], r_fit[1:])[0, 1], 0.0, 0.99)) if n > 3 else 0.0
+    cov = np.linalg.pinv(J.T @ J) * s2 * (1 + rho1) / (1 - rho1)
+    values, stderr = {}, {}
+    for i, f in enumerate(spec):
+        v = f.from_z(x[i])
+        se_z = math.sqrt(max(cov[i, i], 0.0))
+        values[f.key] = v
+        stderr[f.key] = v * se_z if f.log else se_z * f.scale
+    fitted = apply(base, spec, x[:k])
+    factors = {r.name: math.exp(x[k + j]) for j, r in enumerate(train)}
+    # held out: the physics fixed at the fit, only each recording's nuisance (its offset
+    # and resistivity factor, with the same prior) fitted
+    if held:
+        h0 = None if warm is None else [math.log(warm.rho_factors.get(r.name, 1.0)) for r in held]
+        sol_h, _, xs_h = _solve(held, fitted, [], [], runner, sigma, sigma_rep, decimate, max_nfev, progress, h0)
+        factors.update({r.name: math.exp(sol_h.x[j]) for j, r in enumerate(held)})
+    else:
+        xs_h = []
+    simulated, offsets = {}, {}
+    sq = {"train": [0.0, 0], "held": [0.0, 0]}
+    for r, xm, part in [(r, xm, "train") for r, xm in zip(train, xs)] + [(r, xm, "held") for r, xm in zip(held, xs_h)]:
+        if isinstance(xm, str):
+            raise FitError(f"{r.name}: the fitted model does not run ({xm})")
+        off = sensor_offset(r.stroke, xm, sigma)
+        offsets[r.name] = off
+        simulated[r.name] = xm + off
+        e = r.stroke - simulated[r.name]
+        sq[part][0] += float(e @ e)
+        sq[part][1] += e.size
+    rss = float(np.sum(r_fit ** 2)) * sigma ** 2
+    return FitResult(spec=list(spec), base=base, params=fitted, values=values, stderr=stderr, sigma=sigma,
+                     train=[r.name for r in train], heldout=[r.name for r in held], rho_factors=factors,
+                     offsets=offsets, simulated=simulated, train_rmse=math.sqrt(sq["train"][0] / sq["train"][1]),
+                     heldout_rmse=math.sqrt(sq["held"][0] / sq["held"][1]) if held else None, rss=rss, n=n,
+                     k=k + 2 * R, cost=float(sol.cost), wall_time=time.perf_counter() - wall, runs=runner.runs,
+                     notes=notes)

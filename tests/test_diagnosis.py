@@ -1,0 +1,90 @@
+"""Mismatch diagnosis on synthetic datasets with concealed truths (dfa_model.synthetic):
+a null dataset (only the nominal rho_l wrong), a hidden stiffness, a wrong nominal t_lz.
+Small and short (N = 41, 1 s reset + 5 s hold, 3 loads x 2 repetitions) to keep CI fast;
+the effects stay visible at that size."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import diagnosis
+from dfa_model import preset
+from dfa_model.recordings import read_dataset
+from dfa_model.synthetic import Measurement, generate_dataset
+
+NOMINAL = preset("vshape-table1").replace(N=41, rho_l=3e12)
+TRUTH = NOMINAL.replace(rho_l=2e12)
+CONDITIONS = [(6000.0, 3.0), (6000.0, 5.0), (6000.0, 7.0)]
+
+
+def _diagnose(tmp_path_factory, name, truth, seed):
+    folder = tmp_path_factory.mktemp(name)
+    drawn = generate_dataset(folder / "data", truth, NOMINAL, CONDITIONS, repetitions=2, reset=1.0, hold=5.0,
+                             measurement=Measurement(rho_spread=0.03), seed=seed)
+    ds = read_dataset(folder / "data")
+    D = diagnosis.diagnose(ds, executor=None)
+    report = diagnosis.write_report(D, folder / "out")
+    return D, report, drawn, folder / "out"
+
+
+@pytest.fixture(scope="module")
+def null(tmp_path_factory):
+    return _diagnose(tmp_path_factory, "null", TRUTH, 11)
+
+
+@pytest.fixture(scope="module")
+def stiff(tmp_path_factory):
+    return _diagnose(tmp_path_factory, "stiff", TRUTH.replace(k=300.0), 12)
+
+
+def test_null_dataset_reports_no_missing_physics(null):
+    D, report, drawn, out = null
+    assert report["missing_physics"] == [] and report["fit"]["improved"] is None
+    assert report["conclusion"].startswith("no missing physics found")
+    assert not report["mismatch"] and report["located"] == []
+    # the wrong nominal rho_l (3e12) is corrected to the truth's (times the repetitions'
+    # mean factor), within three standard errors
+    c = report["corrected_parameters"]["rho_l"]
+    mean_factor = np.exp(np.mean(np.log([r["rho_factor"] for r in drawn["recordings"]])))
+    assert c["nominal"] == 3e12 and c["corrected"]
+    assert abs(c["fitted"] - 2e12 * mean_factor) < 3 * c["stderr"] + 0.02 * 2e12
+    # both errors at the noise level
+    assert report["fit"]["baseline"]["heldout_rmse"] < 1.2 * D.baseline.sigma
+    on_disk = json.loads((out / "report.json").read_text())
+    assert set(on_disk) >= {"mismatch", "missing_physics", "corrected_parameters", "located", "fit"}
+    assert set(on_disk["fit"]["baseline"]) >= {"parameters", "train_rmse", "heldout_rmse"}
+    assert (out / "report.md").is_file() and (out / "residuals.png").is_file()
+
+
+def test_hidden_stiffness_is_named_fitted_and_proved_on_held_out_data(stiff):
+    D, report, drawn, out = stiff
+    assert report["mismatch"] and report["located"]
+    names = [m["name"] for m in report["missing_physics"]]
+    assert names[:1] == ["stiffness"], report["candidates"][0]
+    k = report["missing_physics"][0]["parameters"]["k"]
+    assert k["value"] == pytest.approx(300.0, rel=0.15)
+    base, imp = report["fit"]["baseline"], report["fit"]["improved"]
+    assert imp["heldout_rmse"] <= 0.5 * base["heldout_rmse"]
+    assert imp["heldout_rmse"] < 1.3 * D.baseline.sigma
+    assert (out / "fitted_terms.png").is_file()
+
+
+def test_a_wrong_nominal_value_is_corrected_not_taken_for_missing_physics(tmp_path_factory):
+    D, report, drawn, out = _diagnose(tmp_path_factory, "tlz", TRUTH.replace(t_lz=13e-6), 13)
+    assert report["missing_physics"] == [], [m["name"] for m in report["missing_physics"]]
+    c = report["corrected_parameters"]["t_lz"]
+    assert c["nominal"] == pytest.approx(10e-6) and c["corrected"]
+    assert c["fitted"] == pytest.approx(13e-6, rel=0.05)
+    assert "nominal value(s) corrected: t_lz" in report["conclusion"]
+    assert report["fit"]["improved"]["heldout_rmse"] <= 0.5 * report["fit"]["baseline"]["heldout_rmse"]
+
+
+def test_dfa_diagnose_bad_dataset_is_one_line(tmp_path, capsys):
+    from dfa_model.cli import main
+    (tmp_path / "actuator.toml").write_text(NOMINAL.to_toml())
+    assert main(["diagnose", str(tmp_path), "--out", str(tmp_path / "out")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"dfa: error: {tmp_path}: no recordings (*.csv)"]
+    assert not (tmp_path / "out").exists()
