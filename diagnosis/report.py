@@ -81,13 +81,26 @@ def conclusion(D) -> str:
     return "; ".join(parts)
 
 
-def plot_residuals(D, path):
+def _per_condition(D, row_height):
+    """(pyplot, {condition: recordings}, figure, axes): one row per condition."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     conds = D.dataset.conditions()
-    n = len(conds)
-    fig, axes = plt.subplots(n, 1, figsize=(9, 1.9 * n + 0.8), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(len(conds), 1, figsize=(9, row_height * len(conds) + 0.8), sharex=True, squeeze=False)
+    return plt, conds, fig, axes
+
+
+def _finish(plt, fig, axes, path):
+    axes[0, 0].legend(fontsize=8, loc="upper right")
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_residuals(D, path):
+    plt, conds, fig, axes = _per_condition(D, 1.9)
     for ax, (c, recs) in zip(axes[:, 0], conds.items()):
         for r in recs:
             ax.plot(r.t, D.baseline.residual(r) * 1e6, lw=0.5, color="C3", alpha=0.7)
@@ -100,21 +113,12 @@ def plot_residuals(D, path):
     axes[0, 0].plot([], [], color="C3", label="baseline")
     if D.kept:
         axes[0, 0].plot([], [], color="C2", label="improved")
-    axes[0, 0].legend(fontsize=8, loc="upper right")
-    axes[-1, 0].set_xlabel("time (s)")
     fig.suptitle("measured - model stroke, every recording", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish(plt, fig, axes, path)
 
 
 def plot_overlays(D, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    conds = D.dataset.conditions()
-    n = len(conds)
-    fig, axes = plt.subplots(n, 1, figsize=(9, 2.0 * n + 0.8), sharex=True, squeeze=False)
+    plt, conds, fig, axes = _per_condition(D, 2.0)
     for ax, (c, recs) in zip(axes[:, 0], conds.items()):
         r = recs[0]
         ax.plot(r.t, (r.stroke - D.baseline.offsets[r.name]) * 1e3, lw=0.6, color="0.5", label="measured")
@@ -125,11 +129,7 @@ def plot_overlays(D, path):
                     label="improved")
         ax.set_title(f"{r.name}", fontsize=9, loc="left")
         ax.set_ylabel("stroke (mm)")
-    axes[0, 0].legend(fontsize=8, loc="upper right")
-    axes[-1, 0].set_xlabel("time (s)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish(plt, fig, axes, path)
 
 
 def plot_terms(D, path) -> bool:
