@@ -58,6 +58,7 @@ def to_json(D) -> dict:
         "located": [w.to_dict() for w in D.windows if w.systematic],
         "fit": {"baseline": _fit_dict(D.baseline), "improved": _fit_dict(final)},
         "conclusion": conclusion(D),
+        "headline": headline(D),
         "trends": D.trends,
         "candidates": D.rounds,
         "recordings": [{"recording": r.name, "voltage": r.hold_voltage, "force": r.force_mean,
@@ -66,6 +67,36 @@ def to_json(D) -> dict:
         "wall_time": D.wall_time,
     }
     return _clean(out)
+
+
+def hold_speed(t, x, t0, t1, span=0.5) -> float:
+    """Average unzipping speed over the hold [t0, t1] (m/s, positive when unzipping): the
+    drop between the mean strokes of its first and last `span` s over the time between
+    their centres (the Sec. 3.1 peak-to-end drop, robust to sensor noise)."""
+    a = (t >= t0) & (t < t0 + span)
+    b = (t > t1 - span) & (t <= t1)
+    return float((np.mean(x[a]) - np.mean(x[b])) / (t1 - t0 - span))
+
+
+def headline(D) -> list:
+    """Per condition, the paper's headline metric (hold_speed): measured mean and the
+    repetitions' SD, and the baseline's and the improved model's error. A mismatch is
+    concealed when the baseline's error lies within the repetition spread."""
+    out = []
+    for c, recs in D.dataset.conditions().items():
+        t0, t1 = recs[0].reset_end, recs[0].duration
+        meas = [hold_speed(r.t, r.stroke, t0, t1) for r in recs]
+        base = [hold_speed(r.t, D.baseline.simulated[r.name], t0, t1) for r in recs]
+        row = {"voltage": c[0], "force": c[1], "repetitions": len(recs), "speed_measured": float(np.mean(meas)),
+               "speed_spread": float(np.std(meas, ddof=1)) if len(recs) > 1 else None,
+               "speed_error_baseline": float(np.mean(base) - np.mean(meas))}
+        if D.kept:
+            imp = [hold_speed(r.t, D.final.simulated[r.name], t0, t1) for r in recs]
+            row["speed_error_improved"] = float(np.mean(imp) - np.mean(meas))
+        row["concealed"] = None if row["speed_spread"] is None else \
+            bool(abs(row["speed_error_baseline"]) <= row["speed_spread"])
+        out.append(row)
+    return out
 
 
 def conclusion(D) -> str:
@@ -127,7 +158,7 @@ def plot_overlays(D, path):
         if D.kept:
             ax.plot(r.t, (D.final.simulated[r.name] - D.baseline.offsets[r.name]) * 1e3, lw=1, ls="--", color="C2",
                     label="improved")
-        ax.set_title(f"{r.name}", fontsize=9, loc="left")
+        ax.set_title(f"{r.name}" + (" (held out)" if r.name in D.baseline.heldout else ""), fontsize=9, loc="left")
         ax.set_ylabel("stroke (mm)")
     _finish(plt, fig, axes, path)
 
@@ -188,6 +219,15 @@ def to_markdown(D, report: dict, plots: dict) -> str:
     if D.kept:
         L.append(f"| + {' + '.join(e.name for e in D.kept)} | {um(D.final.train_rmse)} | {um(D.final.heldout_rmse)} | "
                  f"{D.final.bic:.1f} |")
+    L += ["", "Headline metric (average unzipping speed over the hold, um/s; concealed: the baseline's error "
+          "within the repetitions' SD):", "",
+          "| condition | measured | repetition SD | baseline error | improved error | concealed |", "|---|---|---|---|---|---|"]
+    for h in report["headline"]:
+        f = lambda v: "-" if v is None else f"{v * 1e6:+.3g}"   # noqa: E731
+        sd = "-" if h["speed_spread"] is None else f"{h['speed_spread'] * 1e6:.3g}"
+        hidden = "-" if h["concealed"] is None else ("yes" if h["concealed"] else "no")
+        L.append(f"| {h['voltage'] / 1e3:g} kV, {h['force']:g} N | {h['speed_measured'] * 1e6:.3g} | {sd} | "
+                 f"{f(h['speed_error_baseline'])} | {f(h.get('speed_error_improved'))} | {hidden} |")
     L += ["", "## Fitted parameters", "", "| parameter | nominal | fitted | standard error |", "|---|---|---|---|"]
     for k, v in D.final.values.items():
         L.append(f"| {k} | {getattr(D.dataset.params, k, '-')} | {v:.4g} | {D.final.stderr[k]:.2g} |")
