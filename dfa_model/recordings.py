@@ -118,9 +118,9 @@ def _where(path, line=None) -> str:
     return f"{path.name}, row {line}" if line is not None else path.name
 
 
-def read_csv(path) -> Recording:
-    """Read and check one recording (module docstring); no actuator needed (units are
-    checked against the actuator by read_dataset)."""
+def read_csv(path, x_e: float | None = None) -> Recording:
+    """Read and check one recording (module docstring). x_e: the actuator's full stroke
+    (m), which bounds the stroke column (read_dataset gives it); without it, MAX_STROKE."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -185,7 +185,7 @@ def read_csv(path) -> Recording:
         spans = ", ".join(f"{t[g]:.4g}-{t[g + 1]:.4g} s" for g in gaps[:5]) + (" ..." if gaps.size > 5 else "")
         rec.notes.append(f"{gaps.size} gap(s) in time (steps over {GAP_FACTOR:g}x the median {step * 1e3:.3g} ms): "
                          f"{spans}; kept, the fit uses the samples there are")
-    _check_units(rec)
+    _check_units(rec, x_e)
     _interpret(rec)
     return rec
 
@@ -282,9 +282,4 @@ def read_dataset(folder) -> Dataset:
         raise RecordingError(f"{folder}: no recordings (*.csv)")
     from .kinematics import make
     x_e = float(make(params).x_e)
-    recs = []
-    for f in files:
-        r = read_csv(f)
-        _check_units(r, x_e)
-        recs.append(r)
-    return Dataset(folder, params, recs)
+    return Dataset(folder, params, [read_csv(f, x_e) for f in files])

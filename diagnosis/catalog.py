@@ -70,12 +70,5 @@ NOMINAL = [
 ]
 
 
-def entry(name: str) -> Entry:
-    for e in PHYSICS + NOMINAL:
-        if e.name == name:
-            return e
-    raise KeyError(name)
-
-
 def baseline_spec(p: Parameters) -> list:
     return [FreeParameter(resistivity_key(p), True, 1e8, 1e16)]

@@ -22,7 +22,6 @@ from dataclasses import dataclass, field
 from .catalog import NOMINAL, PHYSICS, baseline_spec
 from .fit import fit, local_executor
 from .locate import condition_trends, locate
-from .model import start
 
 BIC_MIN = 10.0       # "very strong" evidence on the BIC scale
 HELDOUT_MIN = 0.10   # relative held-out RMSE reduction a kept candidate must bring
@@ -94,7 +93,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                 spec = baseline_spec(p) + [fp for k in kept for fp in k.spec(p)] + e.spec(p)
                 say(f"round {rnd + 1}: {e.name}")
                 try:
-                    f = fit(dataset, spec, base=p, holdout=holdout, executor=executor, z0=start(p, spec), warm=current)
+                    f = fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=current)
                 except Exception as exc:   # a candidate the model cannot run: evidence says why
                     ev[e.name] = {"error": f"{type(exc).__name__}: {exc}"}
                     continue

@@ -43,7 +43,7 @@ from scipy.sparse import lil_matrix
 from dfa_model.parameters import Parameters
 from dfa_model.synthetic import scaled_resistivity
 
-from .model import FreeParameter, apply, start
+from .model import apply, start
 
 SIGMA_REP = 0.05     # prior SD of log(rho_l) between repetitions
 DELTA_BOUND = 0.5    # |delta_i| at most (a factor 1.65)
@@ -125,7 +125,7 @@ class FitResult:
     sigma: float                      # sensor noise used (m)
     train: list                       # recording names
     heldout: list
-    rho_factors: dict                 # training recording -> exp(delta)
+    rho_factors: dict                 # recording -> exp(delta) (held out: its nuisance fit)
     offsets: dict                     # recording -> sensor offset (m)
     simulated: dict                   # recording -> model stroke at every sample (offset added)
     train_rmse: float
@@ -172,7 +172,9 @@ def choose_holdout(dataset) -> list:
 
 def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0=None):
     """Least squares over `recs`: the spec's globals (none: base fixed) and one delta per
-    recording, offsets projected out. Returns (x, sol, n, simulated-at-every-sample)."""
+    recording, each recording's offset read at rest (sensor_offset). Returns (the
+    least_squares result, the number of fitted samples, the model's strokes at every
+    sample at the solution)."""
     k, R = len(spec), len(recs)
     idx = [np.arange(0, len(r.t), decimate) for r in recs]
     x0 = np.concatenate([np.asarray(z0, float), np.zeros(R) if d0 is None else np.asarray(d0, float)])
@@ -189,6 +191,7 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
 
     def fun(x):
         xs = simulate_all(x)
+        last_runs[x.tobytes()] = xs
         out = np.empty(n + R)
         for j, (r, xm) in enumerate(zip(recs, xs)):
             sl = slice(offs[j], offs[j + 1])
@@ -201,12 +204,13 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
             progress(f"{runner.runs} runs")
         return out
 
-    last = {}
+    last, last_runs = {}, {}
 
     def fun_cached(x):
         key = x.tobytes()
         if key not in last:
             last.clear()
+            last_runs.clear()
             last[key] = fun(x)
         return last[key]
 
@@ -221,6 +225,7 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
             xp = x.copy()
             xp[i] += h
             d = (fun(xp) - f0) / h
+            last_runs.pop(xp.tobytes(), None)
             for j in range(R):
                 J[offs[j]:offs[j + 1], i] = d[offs[j]:offs[j + 1], None]
         if R:
@@ -228,6 +233,7 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
             xp = x.copy()
             xp[k:] += hs
             d = fun(xp) - f0
+            last_runs.pop(xp.tobytes(), None)
             for j in range(R):
                 J[offs[j]:offs[j + 1], k + j] = d[offs[j]:offs[j + 1], None] / hs[j]
                 J[n + j, k + j] = 1.0 / sigma_rep
@@ -236,7 +242,9 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     with np.errstate(all="ignore"):
         sol = least_squares(fun_cached, x0, jac=jac, bounds=(lo, hi), x_scale="jac", ftol=1e-6, xtol=1e-6,
                             gtol=1e-8, max_nfev=max_nfev, method="trf", tr_solver="lsmr")
-    return sol, n, simulate_all(sol.x)
+    # the solution's runs are those of its last evaluation when the search ended there
+    xs = last_runs.get(sol.x.tobytes())
+    return sol, n, xs if xs is not None else simulate_all(sol.x)
 
 
 def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=None, sigma_rep=SIGMA_REP,

@@ -126,15 +126,17 @@ def _switch_times(rec):
     return ts[(ts > 0) & (ts < t_rst)]
 
 
+def _mask(t, t0, t1, name):
+    """The window's samples: [t0, t1), the last one closed at the recording's end."""
+    return (t >= t0) & (t < t1) if name != "hold, last third" else (t >= t0)
+
+
 def _effect(fit, reps, t0, t1, name, sigma) -> float:
     """RMS of the repetition-averaged residual over the window against what the
     repetitions' scatter about it leaves in such an average (scatter / sqrt(R)): about 1
     when the residuals are noise or repetition-to-repetition differences, large when all
     repetitions miss the same way. One repetition: its RMS against the noise."""
-    rs = []
-    for o in reps:
-        m = (o.t >= t0) & ((o.t < t1) if name != "hold, last third" else True)
-        rs.append(fit.residual(o)[m])
+    rs = [fit.residual(o)[_mask(o.t, t0, t1, name)] for o in reps]
     L = min(len(x) for x in rs)
     A = np.array([x[:L] for x in rs])
     if len(rs) < 2:
@@ -153,7 +155,7 @@ def locate(dataset, fit) -> list:
         res = fit.residual(rec)
         reps = conds[rec.condition()]
         for name, t0, t1 in windows_of(rec):
-            m = (rec.t >= t0) & (rec.t < t1) if name != "hold, last third" else (rec.t >= t0)
+            m = _mask(rec.t, t0, t1, name)
             n = int(m.sum())
             if n < 20:
                 continue
@@ -184,7 +186,7 @@ def condition_trends(dataset, windows) -> list:
             if np.ptp(xv) == 0:
                 continue
             A = np.column_stack([np.ones_like(xv), xv - xv.mean()])
-            coef, res, *_ = np.linalg.lstsq(A, y, rcond=None)
+            coef, *_ = np.linalg.lstsq(A, y, rcond=None)
             dof = len(y) - 2
             if dof < 1:
                 continue
