@@ -2,7 +2,8 @@
 
 A law maps the magnitude of the liquid field |E_l| (V/m) to rho_l (ohm m). Inside the
 compiled solver a law is an id and a parameter array (`law_id`, `params`): 0 constant,
-1 linear with floor (Eq. 21), 2 table (log rho linear in log |E|). Any other law is a
+1 linear with floor (Eq. 21), 2 table (log rho linear in log |E|; the monotone spline law
+is one). Any other law is a
 subclass of `ResistivityLaw` that implements the NumPy method `rho(E_abs)`: it is
 tabulated on a fine log grid (`TABLE_POINTS` points over `TABLE_RANGE` V/m), so new
 physics never touches the solver (and the compiled code stays cached).
@@ -100,9 +101,45 @@ class LinearResistivity(ResistivityLaw):
         return f"LinearResistivity(m_rho={self.m_rho:g}, q_rho={self.q_rho:g}, rho_min={self.rho_min:g})"
 
 
+class MonotoneSplineResistivity(ResistivityLaw):
+    """A law of a shape nobody has to guess: ln rho a monotone (PCHIP) spline in ln |E|
+    through SPLINE_KNOTS knots spaced evenly in ln |E| from E_lo to E_hi; rho_l below
+    E_lo, constant above E_hi. The knot values are rho_l exp(-(d_1 + ... + d_k)) with
+    drops d_k >= 0: non-increasing in the field (field-enhanced dissociation and charge
+    injection lower the resistivity), and the constant law when every drop is 0."""
+
+    def __init__(self, rho_l: float, E_lo: float = 1e6, E_hi: float = 1e8, drops=(0.0, 0.0, 0.0)):
+        self.rho_l, self.E_lo, self.E_hi = float(rho_l), float(E_lo), float(E_hi)
+        self.drops = np.asarray(drops, float)
+        if self.drops.shape != (SPLINE_KNOTS - 1,) or np.any(self.drops < 0) or not 0 < self.E_lo < self.E_hi:
+            raise ValueError(f"MonotoneSplineResistivity: need {SPLINE_KNOTS - 1} drops >= 0 and 0 < E_lo < E_hi")
+        self._table = None
+
+    @property
+    def knots(self):
+        """(E_k, rho_k): the knots (V/m, ohm m)."""
+        E = np.geomspace(self.E_lo, self.E_hi, SPLINE_KNOTS)
+        return E, self.rho_l * np.exp(-np.concatenate([[0.0], np.cumsum(self.drops)]))
+
+    def rho(self, E):
+        from scipy.interpolate import PchipInterpolator
+        E_k, r_k = self.knots
+        lE = np.log(np.clip(np.abs(np.asarray(E, float)), self.E_lo, self.E_hi))
+        return np.exp(PchipInterpolator(np.log(E_k), np.log(r_k))(lE))
+
+    def __repr__(self):
+        return (f"MonotoneSplineResistivity(rho_l={self.rho_l:g}, E_lo={self.E_lo:g}, E_hi={self.E_hi:g}, "
+                f"drops={self.drops.tolist()})")
+
+
+SPLINE_KNOTS = 4
+
+
 def from_parameters(p) -> ResistivityLaw:
     if p.law == "constant":
         return ConstantResistivity(p.rho_l)
+    if p.law == "spline":
+        return MonotoneSplineResistivity(p.rho_l, p.E_lo, p.E_hi, (p.d_rho1, p.d_rho2, p.d_rho3))
     return LinearResistivity(p.m_rho, p.q_rho, p.rho_min)
 
 

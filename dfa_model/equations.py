@@ -14,7 +14,7 @@ scheme 1, "paper": Eq. (9) midpoint force and the pseudo-transient Eq. (15): two
     states (sigma_l, sigma_f) per element and a fictitious series resistance rho_t_s.
 
 `mat` packs material and mechanical constants (indices below); `cfg` the integer
-switches [layout, scheme, law_is_constant, nb, nbord, M].
+switches [layout, scheme, law_is_constant, nb, nbord, M, polarization, series resistance].
 """
 from __future__ import annotations
 
@@ -26,10 +26,11 @@ from numba import njit
 from .kinematics import V_SHAPED, front_slope, kin_eval, profile, zipping_angle
 
 # mat indices
-EPS_L, EPS_F, T_F, T_LZ, T0, U0, TAU_L, TAU_F, RHO_TS, B, MASS, K, DS, W, XSC, QSC, X_E = range(17)
-NMAT = 17  # XSC, QSC: stroke and charge-density scales for tolerances and differences; X_E: the upper stop
+EPS_L, EPS_F, T_F, T_LZ, T0, U0, TAU_L, TAU_F, RHO_TS, B, MASS, K, DS, W, XSC, QSC, X_E, CHI_P, TAU_P, R_S = range(20)
+NMAT = 20  # XSC, QSC: stroke and charge-density scales for tolerances and differences; X_E: the upper stop;
+# CHI_P, TAU_P: the liquid's fast (Debye) relaxation; R_S: the series resistance (nodal scheme only)
 # cfg indices
-C_LAYOUT, C_SCHEME, C_CONST, C_NB, C_NBORD, C_M = range(6)
+C_LAYOUT, C_SCHEME, C_CONST, C_NB, C_NBORD, C_M, C_POL, C_RS = range(8)
 # output record columns
 (R_T, R_X, R_V, R_LZ, R_ANG, R_FE, R_I, R_C, R_U, R_VOLT, R_F, R_EMAX, R_Q,
  R_EIN, R_EJ, R_EINTRA, R_ESRC, R_EDAMP, R_ELOAD, R_EIMPACT) = range(20)

@@ -20,9 +20,11 @@ import math
 import numpy as np
 from numba import njit
 
-from .equations import C_NB, C_NBORD, C_SCHEME, K, MASS, NPOW, NREC, R_C, R_EIN, R_T, R_X, X_E, XSC
+from .equations import C_NB, C_NBORD, C_RS, C_SCHEME, K, MASS, NPOW, NREC, R_C, R_EIN, R_T, R_X, X_E, XSC
 from .kernels import diagnostics, factor, jacobian, solve
 from .nodal import NWORK
+
+NODAL_ID = 2   # kernels.NODAL
 from .kernels import rhs as rhs_any
 
 GAMMA = 2.0 - math.sqrt(2.0)
@@ -53,9 +55,9 @@ def make_workspace(n, ne, nb, h0):
     controller state. A stepping caller (the FMU) keeps it, so consecutive calls
     continue exactly like one call; copying it saves the complete solver state.
     The last array is f at the current state."""
-    ws = (np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, nb)), np.zeros((2, 2)),
-          np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3)), np.zeros(ne), np.zeros(ne),
-          np.zeros(ne), np.zeros((2, 2)), np.zeros(n))
+    ws = (np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, nb)), np.zeros((3, 4)),
+          np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3 if nb == 1 else 9)), np.zeros(3 * ne + 1),
+          np.zeros(ne), np.zeros(ne), np.zeros((3, 3)), np.zeros(n))
     ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0, 0.0, 0.0])
     return ws, ist
 
@@ -117,7 +119,7 @@ def _dense_record(cfg, geo, mat, law, lawp, s, h, to, y, z1, z2, V, Vs, F, E, yi
 
 
 @njit(cache=True)
-def _newton(cfg, geo, mat, law, lawp, V, F, z, base, gh, held, fz, res, dz, y, scale, rtol, Winv, zeta, Jbe, tri,
+def _newton(cfg, geo, mat, law, lawp, V, F, z, base, gh, held, fz, res, dz, y, scale, rtol, Winv, zeta, Jbe, Jbb, tri,
             cp, dinv, S, fb, kin, work, jbe, eta):
     """Simplified Newton for a stage z = base + gh f(z) with the factored matrix.
     `eta` carries the contraction estimate theta/(1 - theta) from earlier iterations
@@ -134,7 +136,7 @@ def _newton(cfg, geo, mat, law, lawp, V, F, z, base, gh, held, fz, res, dz, y, s
                 fz[i] = 0.0
         for i in range(n):
             res[i] = -(z[i] - base[i] - gh * fz[i])
-        solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, dz)
+        solve(cfg, mat, gh, Winv, zeta, Jbe, Jbb, tri, cp, dinv, S, fb, res, dz)
         for i in range(n):
             z[i] += dz[i]
         nrm = _wnorm(dz, y, z, scale, rtol, nbord)
@@ -322,7 +324,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         # passes the same input again); f and the Newton matrix carry on
         smooth = V0 == Vleft and F0 == Fleft and Vs == 0.0 and Fs == 0.0 and ist[I_F0OK] > 0.0
         # a voltage jump moves charge instantly (continuum scheme): book its energy
-        if want_energy and cfg[C_SCHEME] != 1 and V0 != Vleft:
+        if want_energy and cfg[C_SCHEME] != 1 and cfg[C_RS] == 0 and V0 != Vleft:
             rhs_any(cfg, geo, mat, law, lawp, Vleft, F0, y, f0, kin, work, tri, jbe)
             diagnostics(cfg, geo, mat, law, lawp, Vleft, 0.0, F0, y, f0, kin, work, row, P0)
             C = row[R_C]
@@ -335,14 +337,15 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         else:
             rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
             nfev += 1
-            if jac_ok and V0 == -Vleft and V0 != 0.0 and F0 == Fleft:
+            if jac_ok and V0 == -Vleft and V0 != 0.0 and F0 == Fleft and cfg[C_RS] == 0:
                 # polarity inversion: the q-x couplings scale with A = eps_l V - T0 q and
                 # flip sign, the rest is unchanged for small q; a good Newton matrix for
                 # free (Newton's convergence test still guards the result)
                 for i in range(Jeb.shape[0]):
                     for c in range(nb):
                         Jeb[i, c] = -Jeb[i, c]
-                        Jbe[i, c] = -Jbe[i, c]
+                        if c == 0 or cfg[C_SCHEME] != NODAL_ID:   # the force's P-derivative ~ P: unchanged
+                            Jbe[i, c] = -Jbe[i, c]
                 h_fact = -1.0
             else:
                 jac_ok = False
@@ -398,7 +401,10 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 jacobian(cfg, geo, mat, law, lawp, V0 + Vs * (t - ta), F0 + Fs * (t - ta), y, fbase,
                          Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp, jbe)
                 if stuck >= 0 or stop != 0:    # the stroke is held: its rows decouple
-                    Jbb[:, :] = 0.0
+                    for a in range(Jbb.shape[0]):
+                        for b in range(Jbb.shape[1]):
+                            if a < nbord or b < nbord:   # (a series resistance's V_d keeps its own)
+                                Jbb[a, b] = 0.0
                     Jbe[:, :] = 0.0
                 njac += 1
                 nfev += 2
@@ -408,7 +414,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 eta = 1.0
             gh = DG * h
             if h != h_fact:
-                factor(cfg, gh, Jee, Jeb, Jbe, Jbb, tri, fb, Winv, zeta, cp, dinv, S)
+                factor(cfg, mat, gh, Jee, Jeb, Jbe, Jbb, tri, fb, Winv, zeta, cp, dinv, S)
                 h_fact = h
             eta = max(eta, 1e-16) ** 0.8
             # ---- stage 1 (trapezoidal rule to t + gamma h), then stage 2 (BDF2 to t + h)
@@ -421,7 +427,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
             z1[0] = min(max(z1[0], 0.0), x_e)     # predictors start inside the stops
             held = stuck >= 0 or stop != 0
             conv, its, eta = _newton(cfg, geo, mat, law, lawp, Vg, Fg, z1, base, gh, held, fz, res, dz, y,
-                                     scale, rtol, Winv, zeta, Jbe, tri, cp, dinv, S, fb, kin, work, jbe, eta)
+                                     scale, rtol, Winv, zeta, Jbe, Jbb, tri, cp, dinv, S, fb, kin, work, jbe, eta)
             nfev += its
             slow = its > 2
             ok = conv
@@ -436,7 +442,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     base[i] = y[i] + h * WTR * (f0[i] + f1[i])
                 z2[0] = min(max(z2[0], 0.0), x_e)
                 conv, its, eta = _newton(cfg, geo, mat, law, lawp, V2, F2, z2, base, gh, held, fz, res, dz, y,
-                                         scale, rtol, Winv, zeta, Jbe, tri, cp, dinv, S, fb, kin, work, jbe, eta)
+                                         scale, rtol, Winv, zeta, Jbe, Jbb, tri, cp, dinv, S, fb, kin, work, jbe, eta)
                 nfev += its
                 slow = slow or its > 2
                 ok = conv
@@ -459,7 +465,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                     f2[i] = 0.0
             for i in range(n):
                 res[i] = h * (E0 * f0[i] + E1 * f1[i] + E2 * f2[i])
-            solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, res, err)
+            solve(cfg, mat, gh, Winv, zeta, Jbe, Jbb, tri, cp, dinv, S, fb, res, err)
             en = _wnorm(err, y, z2, scale, rtol, nbord)
             if not math.isfinite(en):
                 nrej += 1

@@ -25,17 +25,17 @@ def jacobian(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, tri, kin
 
 
 @njit(cache=True)
-def factor(cfg, gh, Jee, Jeb, Jbe, Jbb, tri, fb, Winv, zeta, cp, dinv, S):
+def factor(cfg, mat, gh, Jee, Jeb, Jbe, Jbb, tri, fb, Winv, zeta, cp, dinv, S):
     if cfg[C_SCHEME] == NODAL:
-        factor_p1(cfg, gh, tri, Jeb, Jbe, Jbb, fb, cp, dinv, zeta[:, 0], S)
+        factor_p1(cfg, mat, gh, tri, Jeb, Jbe, Jbb, fb, cp, dinv, zeta, S)
     else:
         factor_blk(cfg, gh, Jee, Jeb, Jbe, Jbb, fb, Winv, zeta, S)
 
 
 @njit(cache=True)
-def solve(cfg, gh, Winv, zeta, Jbe, tri, cp, dinv, S, fb, r, out):
+def solve(cfg, mat, gh, Winv, zeta, Jbe, Jbb, tri, cp, dinv, S, fb, r, out):
     if cfg[C_SCHEME] == NODAL:
-        solve_p1(cfg, gh, tri, cp, dinv, zeta[:, 0], Jbe, S, fb, r, out)
+        solve_p1(cfg, mat, gh, tri, cp, dinv, zeta, Jbe, Jbb, S, fb, r, out)
     else:
         solve_blk(cfg, gh, Winv, zeta, Jbe, S, fb, r, out)
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import dielectrics, kinematics
-from .equations import (B, DS, EPS_F, EPS_L, K, MASS, NMAT, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F, TAU_L, U0,
+from .equations import (B, CHI_P, DS, R_S, EPS_F, EPS_L, K, MASS, NMAT, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F, TAU_L, TAU_P, U0,
                         W, X_E, XSC)
 from .kernels import NODAL, P0_SCHEME, PAPER, diagnostics, rhs
 from .integrator import make_workspace
@@ -29,12 +29,18 @@ class DFAModel:
         self.M = p.N - 1
         self.ds = p.l_e / self.M
         self.scheme_id = SCHEME_IDS[p.scheme]
-        self.nb = 2 if p.scheme == "paper" else 1
+        # the liquid's fast relaxation (nodal scheme): a second state per material point
+        self.polarized = self.scheme_id == NODAL and p.chi_p > 0
+        self.nb = 2 if (p.scheme == "paper" or self.polarized) else 1
         self.nbord = 1 if p.m == 0 else 2
-        # element states: per element (block schemes) or per material point (nodal)
-        self.n_states = p.N if self.scheme_id == NODAL else self.M * self.nb
-        self.cfg = np.array([self.kin.layout_id, self.scheme_id,
-                             1 if self.law.is_constant else 0, self.nb, self.nbord, self.M], dtype=np.int64)
+        # element states: per element (block schemes) or per material point (nodal:
+        # q' at every point, then P at every point when polarized)
+        self.n_states = p.N * self.nb if self.scheme_id == NODAL else self.M * self.nb
+        # a series resistance (nodal scheme): the device's voltage V_d is the last state
+        self.series = self.scheme_id == NODAL and p.R_s > 0
+        self.cfg = np.array([self.kin.layout_id, self.scheme_id, 1 if self.law.is_constant else 0, self.nb,
+                             self.nbord, self.M, 1 if self.polarized else 0, 1 if self.series else 0],
+                            dtype=np.int64)
         mat = np.zeros(NMAT)
         mat[EPS_L], mat[EPS_F], mat[T_F], mat[T_LZ] = p.eps_l, p.eps_f, p.t_f, p.t_lz
         mat[T0] = 2.0 * p.eps_l * p.t_f / p.eps_f
@@ -44,19 +50,27 @@ class DFAModel:
         mat[RHO_TS] = p.rho_t_s
         mat[B], mat[MASS], mat[K] = p.b, p.m, p.k
         mat[DS], mat[W] = self.ds, p.w
+        mat[CHI_P], mat[TAU_P], mat[R_S] = p.chi_p, p.tau_p, p.R_s
         mat[XSC] = self.kin.x_e
         mat[X_E] = self.kin.x_e
         mat[QSC] = p.eps_l * 1000.0 / mat[U0]
         self.mat = mat
         self.geo = self.kin.geo
-        self.n = self.nbord + self.n_states
+        self.n = self.nbord + self.n_states + (1 if self.series else 0)
 
     # ------------------------------------------------------------------ state
-    def initial_state(self, x0: float = 0.0) -> np.ndarray:
-        """Uncharged actuator at rest at stroke x0."""
+    def initial_state(self, x0: float = 0.0, V_before: float = 0.0) -> np.ndarray:
+        """Uncharged actuator at rest at stroke x0 (behind a series resistance, its
+        electrodes at V_before: the source's steady voltage before t = 0)."""
         y = np.zeros(self.n)
         y[0] = x0
+        if self.series:
+            y[-1] = V_before
         return y
+
+    def device_voltage(self, y, V) -> float:
+        """The voltage across the electrodes: V, or the state V_d behind a series resistance."""
+        return float(y[-1]) if self.series else float(V)
 
     def workspace(self, h0: float):
         """Fresh integrator workspace and controller state (integrator.make_workspace)."""
@@ -87,6 +101,8 @@ class DFAModel:
         if self.nbord == 2:
             sc[1] = self.mat[XSC] * 100.0
         sc[self.nbord:] = self.params.eps_l * max(abs(V_amp), 100.0) / self.mat[U0]
+        if self.series:
+            sc[-1] = max(abs(V_amp), 100.0)
         return sc
 
     # ------------------------------------------------------------------ python-level evaluation
@@ -95,7 +111,7 @@ class DFAModel:
         ydot = np.empty(self.n)
         rhs(self.cfg, self.geo, self.mat if mat is None else mat, self.law.law_id, self.law.params,
             float(V), float(F), np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(NWORK),
-            np.zeros((self.M + 1, 3)), np.zeros(self.M + 1))
+            np.zeros((self.M + 1, 9)), np.zeros(3 * (self.M + 1) + 1))
         return ydot
 
     def electrostatic_force(self, y, V) -> float:
@@ -103,7 +119,7 @@ class DFAModel:
         ydot = np.empty(self.n)
         Fe = rhs(self.cfg, self.geo, self.mat, self.law.law_id, self.law.params, float(V), 0.0,
                  np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(NWORK),
-                 np.zeros((self.M + 1, 3)), np.zeros(self.M + 1))
+                 np.zeros((self.M + 1, 9)), np.zeros(3 * (self.M + 1) + 1))
         return -Fe
 
     def diagnostics(self, y, V, F=0.0, dVdt=0.0, mat=None):
@@ -126,10 +142,10 @@ class DFAModel:
             e = y[self.nbord:].reshape(self.M, 2)
             return 0.5 * (s[:-1] + s[1:]), e[:, 0], e[:, 1]
         if self.scheme_id == NODAL:
-            q = y[self.nbord:]
+            q = y[self.nbord:self.nbord + self.params.N]   # q' (with P when polarized)
         else:
             q = y[self.nbord:]
             s = 0.5 * (s[:-1] + s[1:])
         u = self.mat[T0] + self.kin.t_l(s, y[0])
-        sigma_l = (self.params.eps_l * V - self.mat[T0] * q) / u
+        sigma_l = (self.params.eps_l * self.device_voltage(y, V) - self.mat[T0] * q) / u
         return s, sigma_l, sigma_l + q

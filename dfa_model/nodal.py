@@ -26,7 +26,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .equations import (B, C_LAYOUT, C_M, C_NBORD, DS, EPS_L, MASS, T0, TAU_F, U0, W, X_E, XSC, j_of_E, mech_jacobian,
+from .equations import (B, C_LAYOUT, C_M, C_NBORD, C_POL, C_RS, CHI_P, DS, EPS_L, MASS, R_S, T0, TAU_F, TAU_P, U0, W,
+                        X_E, XSC,
+                        j_of_E, mech_jacobian,
                         mech_rhs, stroke_velocity, write_outputs)
 from .kinematics import front_slope, kin_eval, profile
 
@@ -130,21 +132,55 @@ def _g(law, lawp, const, mat, V, qs, u, itau_l, itau_f):
 @njit(cache=True)
 def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     """ydot = f(y); with jac, also the tridiagonal dq'/dq (tri[i] = [sub, diag, sup])
-    and the force derivatives jbe[i] = dT/dq_i. Returns F_e. work: scratch, >= 4 NQMAX."""
+    and the force derivatives jbe[i] = dT/dq_i. Returns F_e. work: scratch, >= 4 NQMAX.
+
+    With the liquid's fast relaxation (cfg[C_POL]; README 'Polarization branch') the
+    states are [q'_i, then P_i]: q' = q + P is the charge the electrostatics see (the
+    bound charge of the polarization P acts at the interfaces like free charge), and
+
+        dP_i/dt = (chi_p <sigma_l>_i - P_i)/tau_p,   dq'_i/dt = <J_l - J_f>_i + dP_i/dt,
+
+    <.>_i the same lumped Galerkin projection. The branch's energy t_l P^2/(2 chi_p eps_l)
+    depends on the gap, so P adds to the force. tri[:, 3:6] then receives d(dP/dt)/dq'
+    and jbe[nq + i] = dT/dP_i.
+
+    With a series resistance R_s (cfg[C_RS]; README 'Series resistance') the last state
+    is the device's voltage V_d, which the elements see in place of the source's V:
+    w (eps_l V_d' int 1/u + X) = (V - V_d)/R_s, X the rest of the device current
+    (conduction, dq'/dt and dP/dt terms, and the gap's motion). jbe[2 nq:3 nq] receives
+    int phi_i/u, jbe[3 nq] d(V_d')/d(x') (see jacobian_p1). jbe: >= 3 nq + 1."""
     nbord, M = cfg[C_NBORD], cfg[C_M]
     layout = cfg[C_LAYOUT]
     const = law == 0
+    pol = cfg[C_POL] == 1
+    rs = cfg[C_RS] == 1
+    nlast = y.shape[0] - 1
+    Vd = y[nlast] if rs else V
+    m1s = 0.0          # int 1/u
+    SJ = 0.0           # int J_l
+    SAD = 0.0          # int sigma_l (dt_l/dp)/u
     ds = mat[DS]
     t0 = mat[T0]
     kin_eval(layout, geo, y[0], kin)
     nq = M + 1
+    po = nbord + nq                   # offset of the polarization states
+    ichi = 1.0 / mat[CHI_P] if pol else 0.0
     for i in range(nq):
         ydot[nbord + i] = 0.0
+        if pol:
+            ydot[po + i] = 0.0        # first accumulates int phi_i sigma_l
         if jac:
             tri[i, 0] = 0.0
             tri[i, 1] = 0.0
             tri[i, 2] = 0.0
             jbe[i] = 0.0
+            if pol:
+                tri[i, 3] = 0.0
+                tri[i, 4] = 0.0
+                tri[i, 5] = 0.0
+                jbe[nq + i] = 0.0
+        if rs:
+            jbe[2 * nq + i] = 0.0
     xi = work[0:NQMAX]
     wt = work[NQMAX:2 * NQMAX]
     uu = work[2 * NQMAX:3 * NQMAX]
@@ -157,7 +193,7 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     c_lf = 0.0
     a0 = 0.0
     a1 = 0.0
-    epsV = mat[EPS_L] * V
+    epsV = mat[EPS_L] * Vd
     if const:
         c_lf = 1.0 / (lawp[0] * mat[EPS_L]) - 1.0 / mat[TAU_F]
         a0 = epsV * c_lf / mat[U0]
@@ -173,11 +209,26 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
                 tri[e, 2] += a1 * ds / 6.0
                 tri[e + 1, 0] += a1 * ds / 6.0
                 tri[e + 1, 1] += a1 * ds / 3.0
+            if rs:
+                iu0 = 1.0 / mat[U0]
+                m1s += ds * iu0
+                jbe[2 * nq + e] += 0.5 * ds * iu0
+                jbe[2 * nq + e + 1] += 0.5 * ds * iu0
+                SJ += itau_l * ds * iu0 * (epsV - 0.5 * t0 * (qa + qb))
+            if pol:   # sigma_l = (eps_l V - T0 q')/u0, linear in s
+                iu0 = 1.0 / mat[U0]
+                ydot[po + e] += ds * iu0 * (0.5 * epsV - t0 * (qa / 3.0 + qb / 6.0))
+                ydot[po + e + 1] += ds * iu0 * (0.5 * epsV - t0 * (qa / 6.0 + qb / 3.0))
+                if jac:
+                    tri[e, 4] -= t0 * iu0 * ds / 3.0
+                    tri[e, 5] -= t0 * iu0 * ds / 6.0
+                    tri[e + 1, 3] -= t0 * iu0 * ds / 6.0
+                    tri[e + 1, 4] -= t0 * iu0 * ds / 3.0
             continue
         nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
         b0 = 0.0
         b1 = 0.0
-        if const and not jac:
+        if const and not jac and not pol:
             # the hot path (constant law, no Jacobian): g = c_lf sigma_l - q / tau_f
             dq = qb - qa
             for k in range(nn):
@@ -188,21 +239,45 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
                 b1 += wg * p1
                 b0 += wg - wg * p1
                 T += wt[k] * dd[k] * sl * sl
+                if rs:
+                    wu = wt[k] / uu[k]
+                    m1s += wu
+                    jbe[2 * nq + e] += wu * (1.0 - p1)
+                    jbe[2 * nq + e + 1] += wu * p1
+                    SJ += wt[k] * sl * itau_l
+                    SAD += wu * dd[k] * sl
             ydot[nbord + e] += b0
             ydot[nbord + e + 1] += b1
             continue
+        Pa = y[po + e] if pol else 0.0
+        Pb = y[po + e + 1] if pol else 0.0
         for k in range(nn):
             p1 = xi[k]
             p0 = 1.0 - p1
             qs = qa * p0 + qb * p1
-            A, sl, Jl, g, dg = _g(law, lawp, const, mat, V, qs, uu[k], itau_l, itau_f)
+            A, sl, Jl, g, dg = _g(law, lawp, const, mat, Vd, qs, uu[k], itau_l, itau_f)
             b0 += wt[k] * p0 * g
             b1 += wt[k] * p1 * g
+            if rs:
+                wu = wt[k] / uu[k]
+                m1s += wu
+                jbe[2 * nq + e] += wu * p0
+                jbe[2 * nq + e + 1] += wu * p1
+                SJ += wt[k] * Jl
+                SAD += wu * dd[k] * sl
             if dd[k] != 0.0:
                 wdu = wt[k] * dd[k] * (sl / A if A != 0.0 else 1.0 / uu[k]) ** 2   # w dt_l/dp / u^2
                 T += wdu * A * A
             else:
                 wdu = 0.0
+            if pol:
+                ws = wt[k] * sl
+                ydot[po + e] += ws * p0
+                ydot[po + e + 1] += ws * p1
+                Ps = Pa * p0 + Pb * p1
+                # the branch's energy t_l P^2/(2 chi eps_l): in units of the field term
+                # (A^2 (dt_l/dp)/u^2 carries 1/(2 eps_l)), + (dt_l/dp) P^2/chi
+                T += wt[k] * dd[k] * Ps * Ps * ichi
             if jac:
                 wdg = wt[k] * dg
                 tri[e, 1] += wdg * p0 * p0
@@ -212,8 +287,18 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
                 dT = wdu * 2.0 * A * (-t0)
                 jbe[e] += dT * p0
                 jbe[e + 1] += dT * p1
+                if pol:
+                    wsd = -wt[k] * t0 / uu[k]
+                    tri[e, 4] += wsd * p0 * p0
+                    tri[e, 5] += wsd * p0 * p1
+                    tri[e + 1, 3] += wsd * p1 * p0
+                    tri[e + 1, 4] += wsd * p1 * p1
+                    dTP = wt[k] * dd[k] * 2.0 * Ps * ichi
+                    jbe[nq + e] += dTP * p0
+                    jbe[nq + e + 1] += dTP * p1
         ydot[nbord + e] += b0
         ydot[nbord + e + 1] += b1
+    chi, itp = mat[CHI_P], 1.0 / mat[TAU_P]
     for i in range(nq):
         mi = ds if 0 < i < nq - 1 else 0.5 * ds      # lumped mass
         ydot[nbord + i] /= mi
@@ -221,44 +306,96 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
             tri[i, 0] /= mi
             tri[i, 1] /= mi
             tri[i, 2] /= mi
+        if pol:
+            Pd = (chi * ydot[po + i] / mi - y[po + i]) * itp
+            ydot[po + i] = Pd
+            ydot[nbord + i] += Pd
+            if jac:
+                for c in range(3):
+                    tri[i, 3 + c] *= chi * itp / mi
+                    tri[i, c] += tri[i, 3 + c]
     Fe = mat[W] / (2.0 * mat[EPS_L]) * kin[1] * T
     mech_rhs(cfg, mat, F, y, Fe, ydot)
+    if rs:
+        X = SJ
+        for i in range(nq):
+            X -= t0 * ydot[nbord + i] * jbe[2 * nq + i]
+            if pol:
+                X += ydot[po + i] * (ds if 0 < i < nq - 1 else 0.5 * ds)
+        kap = kin[1] * SAD / (mat[EPS_L] * m1s)     # d(V_d')/d(x'): the moving gap's current
+        X -= kin[1] * stroke_velocity(cfg, mat, y, ydot) * SAD
+        ydot[nlast] = ((V - Vd) / (mat[W] * mat[R_S]) - X) / (mat[EPS_L] * m1s)
+        jbe[3 * nq] = kap
     return Fe
 
 
 @njit(cache=True)
 def jacobian_p1(cfg, geo, mat, law, lawp, V, F, y, f0, tri, Jeb, Jbe, Jbb, kin, tmp, ytmp, work, jbe):
     """Bordered tridiagonal Jacobian: tri (dq'/dq), Jeb[:, 0] (dq'/dx), Jbe[:, 0]
-    (d of the force-bearing mechanical rate / dq), Jbb. f0 receives f(y)."""
+    (d of the force-bearing mechanical rate / dq), Jbb. With polarization also
+    tri[:, 3:6] (dP'/dq), Jeb[:, 1] (dP'/dx) and Jbe[:, 1] (d force rate / dP); the
+    P-diagonal is -1/tau_p (in factor_p1). f0 receives f(y)."""
     nbord, M = cfg[C_NBORD], cfg[C_M]
     nq = M + 1
+    pol = cfg[C_POL] == 1
     rhs_p1(cfg, geo, mat, law, lawp, V, F, y, f0, kin, True, tri, jbe, work)
     D = kin[1]
     cF = mat[W] / (2.0 * mat[EPS_L])
     den = mat[B] if nbord == 1 else mat[MASS]
     for i in range(nq):
         Jbe[i, 0] = -cF * D * jbe[i] / den
+        if pol:
+            Jbe[i, 1] = -cF * D * jbe[nq + i] / den
     hx = 1e-7 * mat[XSC]
     if y[0] + hx > mat[X_E]:      # at the upper stop: difference towards the interior
         hx = -hx
     for i in range(y.shape[0]):
         ytmp[i] = y[i]
     ytmp[0] += hx
+    rs = cfg[C_RS] == 1
+    kap = jbe[3 * nq] if rs else 0.0      # from the unperturbed evaluation above
     rhs_p1(cfg, geo, mat, law, lawp, V, F, ytmp, tmp, kin, False, tri, jbe, work)
     for i in range(nq):
         Jeb[i, 0] = (tmp[nbord + i] - f0[nbord + i]) / hx
+        if pol:
+            Jeb[i, 1] = (tmp[nbord + nq + i] - f0[nbord + nq + i]) / hx
     mech_jacobian(cfg, mat, tmp, f0, hx, Jbb)
+    # Jbb[:, 3]: how strongly each border row couples to the elements, as multiples of
+    # the force-bearing row (1 there): the border rows see the elements only through it
+    for a in range(Jbb.shape[0]):
+        Jbb[a, 3] = 0.0
+    Jbb[nbord - 1, 3] = 1.0
+    if rs:
+        # border state V_d (index nbord of the border block; the last state). Its row
+        # depends on the elements through the stroke's velocity (kap times the force
+        # row when massless); the elements' dependence on V_d (~1/tau) is left to
+        # Newton's iteration, which the full residual keeps exact
+        n = y.shape[0]
+        d = nbord
+        Jbb[d, 0] = (tmp[n - 1] - f0[n - 1]) / hx
+        if nbord == 2:
+            Jbb[d, 1] = kap
+        else:
+            Jbb[d, 3] = kap
+        hv = math.copysign(1e-6 * max(abs(y[n - 1]), 100.0), y[n - 1])   # odd in V: V -> -V symmetric
+        ytmp[0] = y[0]
+        ytmp[n - 1] = y[n - 1] + hv
+        rhs_p1(cfg, geo, mat, law, lawp, V, F, ytmp, tmp, kin, False, tri, jbe, work)
+        for a in range(nbord):
+            Jbb[a, d] = (tmp[a] - f0[a]) / hv
+        Jbb[d, d] = (tmp[n - 1] - f0[n - 1]) / hv
+        jbe[3 * nq] = kap
     kin_eval(cfg[C_LAYOUT], geo, y[0], kin)
     return nbord - 1
 
 
 @njit(cache=True)
-def _thomas(cp, dinv, tri, gh, r, roff, out, ooff, nq):
-    """Solve (I - gh tri) z = r[roff:] with the stored factorization."""
+def _thomas(cp, dinv, tri, tc, gh, r, roff, out, ooff, nq):
+    """Solve (I - gh tri[:, tc:tc+3]) z = r[roff:] with the stored factorization."""
     # forward
     prev = 0.0
     for i in range(nq):
-        a = -gh * tri[i, 0]
+        a = -gh * tri[i, tc]
         z = (r[roff + i] - a * prev) * dinv[i]
         out[ooff + i] = z
         prev = z
@@ -266,38 +403,122 @@ def _thomas(cp, dinv, tri, gh, r, roff, out, ooff, nq):
         out[ooff + i] -= cp[i] * out[ooff + i + 1]
 
 
+@njit(cache=True, inline='always')
+def _beta(mat, gh):
+    """Elimination of the polarization states: W_PP = (1 + gh/tau_p) I, beta its inverse."""
+    return 1.0 / (1.0 + gh / mat[TAU_P])
+
+
 @njit(cache=True)
-def factor_p1(cfg, gh, tri, Jeb, Jbe, Jbb, fb, cp, dinv, zeta, S):
+def _pol_back(tri, gh, beta, rP, roff, zq, zoff, out, ooff, nq):
+    """out = beta (r_P + gh T_Pq z_q): the P part of W^-1 r once z_q is known."""
+    for i in range(nq):
+        acc = tri[i, 4] * zq[zoff + i]
+        if i > 0:
+            acc += tri[i, 3] * zq[zoff + i - 1]
+        if i < nq - 1:
+            acc += tri[i, 5] * zq[zoff + i + 1]
+        out[ooff + i] = beta * (rP[roff + i] + gh * acc)
+
+
+@njit(cache=True)
+def factor_p1(cfg, mat, gh, tri, Jeb, Jbe, Jbb, fb, cp, dinv, zeta, S):
+    # S: the border's Schur complement (x, v with mass, V_d with a series resistance)
+    """Factor W = I - gh J. With polarization the P unknowns are eliminated first
+    (W_PP is diagonal): the q' system keeps its tridiagonal form with
+    T_eff = T_qq - (1 - beta) T_Pq (stored in tri[:, 6:9])."""
     nbord, M = cfg[C_NBORD], cfg[C_M]
     nq = M + 1
+    pol = cfg[C_POL] == 1
+    tc = 0
+    beta = 1.0
+    if pol:
+        beta = _beta(mat, gh)
+        tc = 6
+        for i in range(nq):
+            for c in range(3):
+                tri[i, 6 + c] = tri[i, c] - (1.0 - beta) * tri[i, 3 + c]
     for i in range(nq):
-        a = -gh * tri[i, 0]
-        b = 1.0 - gh * tri[i, 1]
-        c = -gh * tri[i, 2]
+        a = -gh * tri[i, tc]
+        b = 1.0 - gh * tri[i, tc + 1]
+        c = -gh * tri[i, tc + 2]
         den = b - (a * cp[i - 1] if i > 0 else 0.0)
         dinv[i] = 1.0 / den
         cp[i] = c / den
+    # zeta = W_ee^-1 (-gh Jeb)
     for i in range(nq):
-        zeta[i] = -gh * Jeb[i, 0]
-    _thomas(cp, dinv, tri, gh, zeta, 0, zeta, 0, nq)     # in place: each entry is read before written
-    for a in range(nbord):
-        for b in range(nbord):
+        zeta[i, 0] = -gh * Jeb[i, 0]
+        if pol:
+            zeta[i, 0] -= (1.0 - beta) * (-gh * Jeb[i, 1])
+            zeta[i, 1] = -gh * Jeb[i, 1]
+    z0 = zeta[:, 0]
+    _thomas(cp, dinv, tri, tc, gh, z0, 0, z0, 0, nq)     # in place: each entry is read before written
+    if pol:
+        z1 = zeta[:, 1]
+        _pol_back(tri, gh, beta, z1, 0, z0, 0, z1, 0, nq)   # reads z1[i] before writing it
+    nbx = nbord + cfg[C_RS]
+    for a in range(nbx):
+        for b in range(nbx):
             S[a, b] = (1.0 if a == b else 0.0) - gh * Jbb[a, b]
     acc = 0.0
     for i in range(nq):
-        acc += -gh * Jbe[i, 0] * zeta[i]
-    S[fb, 0] -= acc
+        acc += -gh * Jbe[i, 0] * zeta[i, 0]
+        if pol:
+            acc += -gh * Jbe[i, 1] * zeta[i, 1]
+    for a in range(nbx):
+        S[a, 0] -= Jbb[a, 3] * acc
+
+
+@njit(cache=True, inline='always')
+def _cramer3(S, r0, r1, r2):
+    """The 3x3 border system S z = r (x, v, V_d) by Cramer's rule."""
+    det = (S[0, 0] * (S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]) - S[0, 1] * (S[1, 0] * S[2, 2] - S[1, 2] * S[2, 0])
+           + S[0, 2] * (S[1, 0] * S[2, 1] - S[1, 1] * S[2, 0]))
+    z0 = (r0 * (S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]) - S[0, 1] * (r1 * S[2, 2] - S[1, 2] * r2)
+          + S[0, 2] * (r1 * S[2, 1] - S[1, 1] * r2)) / det
+    z1 = (S[0, 0] * (r1 * S[2, 2] - S[1, 2] * r2) - r0 * (S[1, 0] * S[2, 2] - S[1, 2] * S[2, 0])
+          + S[0, 2] * (S[1, 0] * r2 - r1 * S[2, 0])) / det
+    z2 = (S[0, 0] * (S[1, 1] * r2 - r1 * S[2, 1]) - S[0, 1] * (S[1, 0] * r2 - r1 * S[2, 0])
+          + r0 * (S[1, 0] * S[2, 1] - S[1, 1] * S[2, 0])) / det
+    return z0, z1, z2
 
 
 @njit(cache=True)
-def solve_p1(cfg, gh, tri, cp, dinv, zeta, Jbe, S, fb, r, out):
+def solve_p1(cfg, mat, gh, tri, cp, dinv, zeta, Jbe, Jbb, S, fb, r, out):
     nbord, M = cfg[C_NBORD], cfg[C_M]
     nq = M + 1
-    _thomas(cp, dinv, tri, gh, r, nbord, out, nbord, nq)
+    pol = cfg[C_POL] == 1
+    po = nbord + nq
+    if pol:
+        beta = _beta(mat, gh)
+        for i in range(nq):
+            out[nbord + i] = r[nbord + i] - (1.0 - beta) * r[po + i]
+        _thomas(cp, dinv, tri, 6, gh, out, nbord, out, nbord, nq)
+        _pol_back(tri, gh, beta, r, po, out, nbord, out, po, nq)
+    else:
+        _thomas(cp, dinv, tri, 0, gh, r, nbord, out, nbord, nq)
     acc = 0.0
     for i in range(nq):
         acc += -gh * Jbe[i, 0] * out[nbord + i]
-    if nbord == 1:
+        if pol:
+            acc += -gh * Jbe[i, 1] * out[po + i]
+    if cfg[C_RS] == 1:
+        n = r.shape[0]
+        nbx = nbord + 1
+        r0 = r[0] - Jbb[0, 3] * acc
+        r1 = r[1] - Jbb[1, 3] * acc if nbord == 2 else r[n - 1] - Jbb[1, 3] * acc
+        if nbx == 2:
+            det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+            dx = (r0 * S[1, 1] - S[0, 1] * r1) / det
+            out[0] = dx
+            out[n - 1] = (S[0, 0] * r1 - S[1, 0] * r0) / det
+        else:
+            r2 = r[n - 1] - Jbb[2, 3] * acc
+            dx, dv, dvd = _cramer3(S, r0, r1, r2)
+            out[0] = dx
+            out[1] = dv
+            out[n - 1] = dvd
+    elif nbord == 1:
         dx = (r[0] - acc) / S[0, 0]
         out[0] = dx
     else:
@@ -308,7 +529,9 @@ def solve_p1(cfg, gh, tri, cp, dinv, zeta, Jbe, S, fb, r, out):
         out[0] = dx
         out[1] = (S[0, 0] * rb1 - S[1, 0] * rb0) / det
     for i in range(nq):
-        out[nbord + i] -= zeta[i] * dx
+        out[nbord + i] -= zeta[i, 0] * dx
+        if pol:
+            out[po + i] -= zeta[i, 1] * dx
 
 
 @njit(cache=True)
@@ -337,17 +560,28 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
     itau_l = 1.0 / (lawp[0] * eps_l) if const else 0.0
     itau_f = 1.0 / tau_f
     ieps_l = 1.0 / eps_l
-    epsV = eps_l * V
-    epsVd = eps_l * dVdt
+    rs = cfg[C_RS] == 1
+    nlast = y.shape[0] - 1
+    epsV = eps_l * (y[nlast] if rs else V)         # the electrodes' voltage (V_d behind R_s)
+    epsVd = eps_l * (ydot[nlast] if rs else dVdt)
+    pol = cfg[C_POL] == 1
+    po = nbord + M + 1
+    ichi = 1.0 / mat[CHI_P] if pol else 0.0
     for e in range(M):
         qa, qb = y[nbord + e], y[nbord + e + 1]
         qda, qdb = ydot[nbord + e], ydot[nbord + e + 1]
         dq, dqd = qb - qa, qdb - qda
+        Pa = y[po + e] if pol else 0.0
+        Pb = y[po + e + 1] if pol else 0.0
+        Pda = ydot[po + e] if pol else 0.0
+        Pdb = ydot[po + e + 1] if pol else 0.0
         nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
         for k in range(nn):
             p1 = xi[k]
             qs = qa + dq * p1
             qd = qda + dqd * p1
+            Ps = Pa + (Pb - Pa) * p1
+            Pd = Pda + (Pdb - Pda) * p1
             u = uu[k]
             iu = 1.0 / u
             A = epsV - t0 * qs
@@ -366,8 +600,22 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
             Q += wk * sf
             # E_l t_l J_l = sigma_l (u - T0) J_l / eps_l; 2 t_f E_f J_f = (T0/eps_l) sigma_f^2 / tau_f
             PJ += wk * ieps_l * (sl * (u - t0) * Jl + t0 * sf * sf * itau_f)
-            Pint += wk * t0 * ieps_l * sf * (g - qd)
+            if pol:
+                # the branch: its current dP/dt, energy t_l P^2/(2 chi eps_l) (in U's
+                # units, times 2 eps_l) and loss t_l tau_p (dP/dt)^2/(chi eps_l); the
+                # interface charge moves by g + dP/dt pointwise
+                T += wk * dd[k] * Ps * Ps * ichi
+                I += wk * Pd
+                U += wk * (u - t0) * Ps * Ps * ichi
+                Pd_pt = (mat[CHI_P] * sl - Ps) / mat[TAU_P]
+                lossP = wk * ieps_l * (u - t0) * mat[TAU_P] * ichi
+                PJ += lossP * Pd_pt * Pd_pt
+                Pint += wk * t0 * ieps_l * sf * (g + Pd - qd) + lossP * Pd_pt * (Pd - Pd_pt)
+            else:
+                Pint += wk * t0 * ieps_l * sf * (g - qd)
             Emax = max(Emax, abs(sl))
     Emax *= ieps_l
+    # the series resistance's loss is the source's: R_s I^2
+    Psrc = mat[R_S] * (w * I) ** 2 if rs else 0.0
     write_outputs(layout, geo, mat, kin, y, v, V, F, D * T, w * I, w * eps_l * C, w / (2.0 * eps_l) * U, w * Q,
-                  Emax, w * PJ, w * Pint, 0.0, rec, P)
+                  Emax, w * PJ, w * Pint, Psrc, rec, P)

@@ -1,7 +1,7 @@
 """Typed parameter sets: presets, TOML load/save and validation.
 
 The TOML layout is a public contract (see README): tables `geometry`, `materials`,
-`mechanics`, `discretization` and the optional `resistivity`; keys named after the
+`mechanics`, `discretization` and the optional `polarization`, `circuit` and `resistivity`; keys named after the
 paper's symbols, SI units. Every key is validated against the range in `SPEC`, and
 errors name the key and its allowed range.
 """
@@ -20,7 +20,7 @@ EPS0 = 8.8541878128e-12  # vacuum permittivity, F/m
 
 LAYOUTS = ("v-shaped", "peano-hasel")
 SCHEMES = ("continuum", "continuum-p0", "paper")
-LAWS = ("constant", "linear")
+LAWS = ("constant", "linear", "spline")
 PRESETS = {"vshape-table1": "vshape-table1.toml", "peano-fig10": "peano-fig10.toml"}
 
 
@@ -65,6 +65,10 @@ SPEC: dict[str, Spec] = {
     "b": Spec("mechanics", "N s/m", "viscous damping (huge values hold the stroke: blocked tests)", 0.0, 1e15),
     "m": Spec("mechanics", "kg", "generalized mass", 0.0, 1e6, True),
     "k": Spec("mechanics", "N/m", "stiffness, dU_m/dx = k x", 0.0, 1e9, True),
+    "chi_p": Spec("polarization", "", "strength of the liquid's fast relaxation, delta eps / eps_l (0: none)",
+                  0.0, 100.0, True),
+    "tau_p": Spec("polarization", "s", "time constant of the liquid's fast relaxation", 0.0, 1e6),
+    "R_s": Spec("circuit", "ohm", "series resistance between the source and the device (0: none)", 0.0, 1e13, True),
     "N": Spec("discretization", "", "material points (N - 1 elements)", 3, 100000, True, int),
     "scheme": Spec("discretization", "", "numerical scheme", kind=str, choices=SCHEMES),
     "rho_t_s": Spec("discretization", "ohm m^2", "fictitious series resistance of Eq. (15) (paper scheme)", 0.0, 1e12),
@@ -73,8 +77,14 @@ SPEC: dict[str, Spec] = {
     "m_rho": Spec("resistivity", "m^2/A", "slope of the linear law, Eq. (21)", -1e12, 1e12),
     "q_rho": Spec("resistivity", "ohm m", "intercept of the linear law, Eq. (21)", 0.0, 1e25),
     "rho_min": Spec("resistivity", "ohm m", "floor at which the linear law is clipped", 0.0, 1e25),
+    "E_lo": Spec("resistivity", "V/m", "first knot of the spline law (rho_l below it)", 0.0, 1e10),
+    "E_hi": Spec("resistivity", "V/m", "last knot of the spline law (constant above it)", 0.0, 1e10),
+    "d_rho1": Spec("resistivity", "", "spline law: ln rho drop from knot 1 to 2", 0.0, 50.0, True),
+    "d_rho2": Spec("resistivity", "", "spline law: ln rho drop from knot 2 to 3", 0.0, 50.0, True),
+    "d_rho3": Spec("resistivity", "", "spline law: ln rho drop from knot 3 to 4", 0.0, 50.0, True),
 }
-TABLES = ("geometry", "materials", "mechanics", "discretization", "resistivity")
+SPLINE_KEYS = ("E_lo", "E_hi", "d_rho1", "d_rho2", "d_rho3")
+TABLES = ("geometry", "materials", "mechanics", "polarization", "circuit", "discretization", "resistivity")
 # keys a parameter file must give (others have documented defaults: k = 0, the scheme,
 # rtol, rho_t_s, and the constant law); a and volume by layout
 REQUIRED = ("l", "w", "l_e", "t_f", "t_lz", "eps_r_f", "eps_r_l", "rho_f", "rho_l", "b", "m", "N")
@@ -102,6 +112,9 @@ class Parameters:
     b: float = 10.0
     m: float = 0.0
     k: float = 0.0
+    chi_p: float = 0.0
+    tau_p: float = 1.0
+    R_s: float = 0.0
     N: int = 81
     scheme: str = "continuum"
     rho_t_s: float = 100.0
@@ -110,6 +123,11 @@ class Parameters:
     m_rho: float = -3.34e5
     q_rho: float = 20e12
     rho_min: float = 1e11
+    E_lo: float = 1e6
+    E_hi: float = 1e8
+    d_rho1: float = 0.0
+    d_rho2: float = 0.0
+    d_rho3: float = 0.0
 
     def __post_init__(self):
         validate(self)
@@ -220,8 +238,12 @@ def applies(p, key: str) -> bool:
         return p.layout == "peano-hasel"
     if key == "rho_t_s":
         return p.scheme == "paper"
+    if key in ("chi_p", "tau_p", "R_s"):
+        return p.scheme == "continuum"
     if key in ("m_rho", "q_rho", "rho_min"):
         return p.law == "linear"
+    if key in SPLINE_KEYS:
+        return p.law == "spline"
     return True
 
 
@@ -229,7 +251,12 @@ def not_applicable(p, key: str) -> str:
     """The error message for a key given where it takes no part (see applies)."""
     why = {"a": f"layout {p.layout!r} (peano-hasel pouches use volume)",
            "volume": f"layout {p.layout!r} (v-shaped actuators use a)",
-           "rho_t_s": f"scheme {p.scheme!r} (only the 'paper' scheme has the series resistance)"}
+           "rho_t_s": f"scheme {p.scheme!r} (only the 'paper' scheme has the series resistance)",
+           "chi_p": f"scheme {p.scheme!r} (the fast relaxation is modelled in the 'continuum' scheme)",
+           "tau_p": f"scheme {p.scheme!r} (the fast relaxation is modelled in the 'continuum' scheme)",
+           "R_s": f"scheme {p.scheme!r} (the series resistance is modelled in the 'continuum' scheme)"}
+    if key in SPLINE_KEYS:
+        why[key] = f"law {p.law!r} ({', '.join(SPLINE_KEYS)} belong to law = 'spline')"
     reason = why.get(key, f"law {p.law!r} (m_rho, q_rho and rho_min belong to law = 'linear')")
     return f"{SPEC[key].table}.{key}: does not apply to {reason}; remove it, or change that setting"
 
@@ -244,6 +271,9 @@ def validate(p: Parameters) -> None:
                 raise ParameterError(f"{key}: missing; {spec.table}.{key} is required for layout {p.layout!r}: {spec.range_text()}")
             continue
         check_value(key, value, spec)
+    if p.law == "spline" and not p.E_lo < p.E_hi:
+        raise ParameterError(f"E_hi: the spline law's last knot {p.E_hi:g} V/m must lie above its first, "
+                             f"E_lo = {p.E_lo:g} V/m")
     th_min = math.radians(THETA0_MIN_DEG)
     if p.layout == "v-shaped":
         if p.a >= p.l:
@@ -384,6 +414,8 @@ def apply_sets(p: Parameters, assignments) -> Parameters:
         if "=" not in item:
             raise ParameterError(f"--set: expected KEY=VALUE, got {item!r}")
         key, text = item.split("=", 1)
+        if not key.strip():
+            raise ParameterError(f"--set: expected KEY=VALUE with a key, got {item!r}")
         key, value = coerce(key.strip(), text.strip())
         if key in changes:
             raise ParameterError(f"--set: {key} given twice ({changes[key]!r} and {value!r})")

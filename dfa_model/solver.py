@@ -74,8 +74,8 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
     T = protocol.duration
     t, V0, Vs, F0, Fs = merge(protocol.piecewise(), load.piecewise(T))
     mat = model.with_k(load.k_load)
-    y = _initial(model, x0, y0)
     V_before = limits.finite_within("V_before", V_before, limits.MAX_VOLTAGE)
+    y = _initial(model, x0, y0, V_before)
     max_steps = _count("max_steps", max_steps)
     if len(t) - 1 > max_steps:
         raise limits.LimitError(f"max_steps: the inputs have {len(t) - 1:,} segments (switches, samples), each at "
@@ -131,14 +131,14 @@ def _rtol(value):
     return float(value)
 
 
-def _initial(model, x0, y0):
+def _initial(model, x0, y0, V_before=0.0):
     """The initial state: uncharged at rest at x0, or y0 (checked)."""
     x_e = model.kin.x_e
     if y0 is None:
         x0 = limits.finite_within("x0", x0, math.inf)
         if not 0.0 <= x0 <= x_e:
             raise ValueError(f"x0: got {x0:g} m, expected a stroke with 0 <= x0 <= x_e = {x_e:.6g} m")
-        return model.initial_state(x0)
+        return model.initial_state(x0, V_before)
     y = np.array(y0, dtype=float)
     if y.shape != (model.n,) or not np.all(np.isfinite(y)):
         raise ValueError(f"y0: expected {model.n} finite values (got shape {y.shape})")

@@ -53,3 +53,35 @@ def test_bad_user_law_is_reported():
 
     with pytest.raises(ValueError, match="finite positive"):
         _ = Negative().params
+
+
+def test_spline_law_neutral_monotone_and_through_its_knots(vshape81):
+    """The monotone spline law: all drops 0 is the constant law; it passes through its
+    knots, never increases with the field, and is flat outside [E_lo, E_hi]."""
+    from dfa_model.dielectrics import MonotoneSplineResistivity, from_parameters
+    t = np.linspace(0, 23, 47)
+    proto = Protocol.reset_then_hold(6000, 20.0)
+    a = simulate(vshape81, proto, load=5.0, t_eval=t)
+    b = simulate(vshape81.replace(law="spline"), proto, load=5.0, t_eval=t)
+    assert np.max(np.abs(a.x - b.x)) < 1e-9 * np.max(a.x)
+    law = from_parameters(vshape81.replace(law="spline", d_rho1=0.3, d_rho2=1.2, d_rho3=0.0))
+    assert isinstance(law, MonotoneSplineResistivity)
+    E_k, r_k = law.knots
+    assert np.allclose(law.rho(E_k), r_k, rtol=1e-12)
+    E = np.geomspace(1e4, 1e10, 2000)
+    r = law.rho(E)
+    assert np.all(np.diff(r) <= 1e-9 * r[:-1])
+    assert r[0] == pytest.approx(vshape81.rho_l) and r[-1] == pytest.approx(r_k[-1])
+    # what the solver sees (the tabulated law) is the same curve
+    r_solver = ResistivityLaw.rho(law, E_k[1:3])
+    assert np.allclose(r_solver, r_k[1:3], rtol=1e-3)
+
+
+def test_spline_law_errors_name_the_key(vshape81):
+    from dfa_model.parameters import ParameterError
+    with pytest.raises(ParameterError, match="d_rho2"):
+        vshape81.replace(law="spline", d_rho2=-0.1)
+    with pytest.raises(ParameterError, match="E_hi"):
+        vshape81.replace(law="spline", E_lo=1e8, E_hi=1e7)
+    with pytest.raises(ParameterError, match="d_rho1: does not apply"):
+        vshape81.replace(d_rho1=0.5)
