@@ -4,7 +4,7 @@
 Goal (issue 10): <= 5 minutes on this 2-core machine. Prints the wall time, what was
 found and the held-out errors.
 
-    python benchmarks/bench_diagnosis.py [--effect stiffness|null|t_lz] [--keep DIR]
+    python benchmarks/bench_diagnosis.py [--effect stiffness|null|t_lz|combined] [--keep DIR]
 """
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 from dfa_model import preset  # noqa: E402
 from dfa_model.synthetic import generate_dataset  # noqa: E402
 
-EFFECTS = {"stiffness": {"k": 300.0}, "null": {}, "t_lz": {"t_lz": 13e-6}}
+EFFECTS = {"stiffness": {"k": 300.0}, "null": {}, "t_lz": {"t_lz": 13e-6},
+           "combined": {"R_s": 1e6, "chi_p": 0.01, "tau_p": 1.0}}
 
 
 def main():

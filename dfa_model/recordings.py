@@ -28,8 +28,9 @@ Documented handling (listed in Recording.notes, which the diagnosis report state
   fit.
 
 Interpretation: the voltage becomes a Protocol of piecewise-constant levels switched at
-the measured threshold crossings (interpolated between samples, so a 1 kHz recording
-times a switch to well under a millisecond), with the stages 'reset' (up to the last
+the measured threshold crossings (interpolated between samples; a regular square-wave
+reset's switches are put on their best-fit regular grid, which times them to a small
+fraction of a sample), with the stages 'reset' (up to the last
 switch before the hold) and 'hold' (the final constant level), the paper's routine
 (Sec. 4.2). `Recording.protocol` and `Recording.load` run on the model as they are.
 """
@@ -215,6 +216,25 @@ def _check_units(rec: Recording, x_e: float | None = None) -> None:
                               f", above the actuator's reach ({limit:g} m)"))
 
 
+def _regular_switches(t_sw: np.ndarray, dt: float) -> np.ndarray:
+    """Switch instants of a square-wave reset, timed to a fraction of a sample: a 1 kHz
+    record of an ideal square wave only brackets each switch within a sample (the
+    interpolated crossing errs by up to dt/2), but a regular wave's switches lie on
+    t0 + k P/2, and the sampling phase walks along the wave, so a straight-line fit
+    through all of them averages those errors out. Used when every switch lies within
+    0.75 dt of the line (the last one - the start of the hold - may be off it); else
+    the measured crossings stand."""
+    for n in (len(t_sw), len(t_sw) - 1):
+        if n < 4:
+            break
+        k = np.arange(n)
+        b, a = np.polyfit(k, t_sw[:n], 1)
+        fit = a + b * k
+        if np.max(np.abs(t_sw[:n] - fit)) <= 0.75 * dt:
+            return np.concatenate([fit, t_sw[n:]])
+    return t_sw
+
+
 def _interpret(rec: Recording) -> None:
     """Voltage -> Protocol (levels switched at threshold crossings, module docstring),
     force -> Load."""
@@ -230,6 +250,7 @@ def _interpret(rec: Recording) -> None:
         dv = v[i + 1] - v[i]
         f = 0.5 if dv == 0 else min(max((mid - v[i]) / dv, 0.0), 1.0)
         t_sw.append(t[i] + f * (t[i + 1] - t[i]))
+    t_sw = _regular_switches(np.array(t_sw), float(np.median(np.diff(t))))
     edges = np.concatenate([[0.0], t_sw, [t[-1]]])
     starts = np.concatenate([[0], sw + 1])
     ends = np.concatenate([sw + 1, [len(t)]])

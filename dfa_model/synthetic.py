@@ -12,7 +12,11 @@ at 1 / dt, run on the full model with the truth parameters, then measured:
   exp(N(0, rho_spread)) (rho_l; with the linear law its intercept q_rho and floor rho_min);
 - the laser sensor adds white noise of `noise` m RMS, reads relative to a zero that is off
   by N(0, offset) m per recording, and rounds to `quantum` m;
-- the voltage channel adds white noise of `voltage_noise` V RMS (levels stay levels).
+- the voltage channel adds white noise of `voltage_noise` V RMS (levels stay levels);
+- the drive's clock is not the sampler's: each recording's reset runs at
+  reset_frequency (1 + N(0, clock)), so the switches fall at every phase of the samples
+  (a drive locked to the sampling grid would put every third switch of a 30 Hz reset
+  exactly on a sample, a case no real rig produces).
 The dataset folder gets `actuator.toml` (the *nominal* parameters: what the user knows)
 and one CSV per recording, named V<kV>_F<N>_r<k>.csv; what was drawn (the per-recording
 factors and offsets, the truth) is returned and, if `manifest` is given, written there -
@@ -40,6 +44,7 @@ class Measurement:
     rho_spread: float = 0.03       # SD of log(rho_l) between repetitions
     voltage_noise: float = 5.0     # voltage channel noise, RMS (V)
     dt: float = 1e-3               # sample period (s)
+    clock: float = 1e-3            # relative SD of the drive's reset frequency against the sampling clock
 
     def __post_init__(self):
         for k, v in asdict(self).items():
@@ -79,9 +84,10 @@ def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = Non
     t = np.round(np.arange(0.0, reset + hold + meas.dt / 2, meas.dt), 12)
     drawn = []
     for V, F in conditions:
-        protocol = Protocol.reset_then_hold(V, hold, reset=reset, reset_frequency=reset_frequency) if reset > 0 \
-            else Protocol.dc(V, hold)
         for rep in range(1, repetitions + 1):
+            f_drive = reset_frequency * (1.0 + float(rng.normal(0.0, meas.clock)))
+            protocol = Protocol.reset_then_hold(V, hold, reset=reset, reset_frequency=f_drive) if reset > 0 \
+                else Protocol.dc(V, hold)
             factor = float(np.exp(rng.normal(0.0, meas.rho_spread)))
             offset = float(rng.normal(0.0, meas.offset))
             p = scaled_resistivity(truth, factor)
@@ -98,7 +104,7 @@ def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = Non
             lines += [f"{a:.6f},{b:.6g},{c:.6g},{d:.9g}" for a, b, c, d in data]
             (folder / f"{name}.csv").write_text("\n".join(lines) + "\n")
             drawn.append({"recording": name, "voltage": V, "force": F, "repetition": rep,
-                          "rho_factor": factor, "offset": offset})
+                          "rho_factor": factor, "offset": offset, "reset_frequency": f_drive})
     out = {"truth": truth.to_dict(), "nominal": nominal.to_dict(), "measurement": asdict(meas), "seed": seed,
            "recordings": drawn}
     if manifest is not None:

@@ -2,14 +2,20 @@
 correct. Each entry is a piece of the one model (a Parameters key or law), so a fitted
 entry runs unchanged in the CLI, the FMU and the surrogates.
 
-Adding an entry: an `Entry(name, prepare, spec)` below - `prepare(p)` switches the
+Adding an entry: an `Entry(name, prepare, spec)` below - `prepare(p, V_max)` switches the
 physics on at a neutral start (it must not change the model's output there), `spec(p)`
 lists its free parameters (diagnosis.model.FreeParameter) - and, if it is new physics, its
 key in dfa_model (parameters.py, and the model's equations).
 
-Available now (existing model pieces): stiffness (k), inertia (m),
-field_dependent_resistivity (Eq. (21), the linear law). Not yet in the model:
-series_resistance, polarization_branch, and a flexible monotone resistivity law.
+Optional: `starts(p)` - start values (dicts of keys) to try when the neutral start cannot
+move (a time constant whose strength starts at 0, a resistance in log coordinates); the
+fit from each is run and the best kept. `variant` names one of several forms of an entry
+(field_dependent_resistivity: Eq. (21) or the monotone spline): the data choose between
+them like between entries, and only one form of an entry is kept.
+
+Entries: stiffness (k), inertia (m), field_dependent_resistivity (law 'linear', Eq. (21);
+law 'spline', monotone in ln |E|), polarization_branch (chi_p, tau_p), series_resistance
+(R_s).
 """
 from __future__ import annotations
 
@@ -27,10 +33,17 @@ CATALOG_IDS = ("field_dependent_resistivity", "polarization_branch", "stiffness"
 @dataclass(frozen=True)
 class Entry:
     name: str
-    prepare: Callable[[Parameters], Parameters]
+    prepare: Callable[[Parameters, float], Parameters]   # (p, the dataset's largest |V|)
     spec: Callable[[Parameters], list]
     description: str
     kind: str = "physics"          # 'physics' (missing physics) or 'nominal' (a corrected value)
+    starts: Callable[[Parameters], list] | None = None
+    variant: str = ""
+
+    @property
+    def key(self) -> str:
+        """The candidate's name in the evidence: the catalog id, with its form if it has several."""
+        return f"{self.name} ({self.variant})" if self.variant else self.name
 
 
 def _force_scale(p: Parameters) -> float:
@@ -43,27 +56,58 @@ def _field_scale(p: Parameters) -> float:
     return 1e4 / (p.t_lz + 2.0 * p.t_f * p.eps_r_l / p.eps_r_f)
 
 
-def _linear_law(p: Parameters) -> Parameters:
+def _linear_law(p: Parameters, V_max: float) -> Parameters:
     if p.law == "linear":
         return p
     return p.replace(law="linear", q_rho=p.rho_l, m_rho=0.0, rho_min=0.01 * p.rho_l)
 
 
+def spline_knots(p: Parameters, V_max: float) -> tuple[float, float]:
+    """(E_lo, E_hi) for the spline law: a decade below 1.2 x the zipped region's field at
+    the dataset's highest voltage - where the recordings probe the law."""
+    E_hi = 1.2 * V_max / (p.t_lz + 2.0 * p.t_f * p.eps_r_l / p.eps_r_f)
+    return E_hi / 10.0, E_hi
+
+
+def _spline_law(p: Parameters, V_max: float) -> Parameters:
+    if p.law == "spline":
+        return p
+    E_lo, E_hi = spline_knots(p, V_max)
+    return p.replace(law="spline", E_lo=E_lo, E_hi=E_hi, d_rho1=0.0, d_rho2=0.0, d_rho3=0.0)
+
+
 PHYSICS = [
-    Entry("stiffness", lambda p: p,
+    Entry("stiffness", lambda p, V_max: p,
           lambda p: [FreeParameter("k", False, 0.0, 1e6, scale=_force_scale(p))],
           "an elastic restoring force k x (films, bonded edges, a compliant load)"),
-    Entry("inertia", lambda p: p,
+    Entry("inertia", lambda p, V_max: p,
           lambda p: [FreeParameter("m", False, 0.0, 100.0, scale=0.01)],
           "a generalized mass m (the stroke's acceleration)"),
     Entry("field_dependent_resistivity", _linear_law,
           # q_rho, the level, is the baseline's resistivity key under this law
           lambda p: [FreeParameter("m_rho", False, -1e20, 1e20, scale=p.q_rho / _field_scale(p))],
-          "the liquid's resistivity depends on its field: Eq. (21), rho_l = m_rho |E_l| + q_rho"),
+          "the liquid's resistivity depends on its field: Eq. (21), rho_l = m_rho |E_l| + q_rho", variant="Eq. 21"),
+    Entry("field_dependent_resistivity", _spline_law,
+          # rho_l, the level below the first knot, is the baseline's key; the drops shape it
+          lambda p: [FreeParameter(k, False, 0.0, 20.0, scale=0.3) for k in ("d_rho1", "d_rho2", "d_rho3")],
+          "the liquid's resistivity depends on its field: a monotone spline of ln rho_l in ln |E_l|",
+          variant="spline"),
+    Entry("polarization_branch", lambda p, V_max: p,
+          lambda p: [FreeParameter("chi_p", False, 0.0, 5.0, scale=0.05), FreeParameter("tau_p", True, 1e-3, 1e3)],
+          "a fast dielectric relaxation of the liquid (volume or screening charges): a second RC branch per "
+          "element, strength chi_p = delta eps/eps_l, time constant tau_p",
+          # from chi_p = 0 the time constant cannot move: start from a small branch, fast or slow
+          starts=lambda p: [{"chi_p": 0.03, "tau_p": 0.3}, {"chi_p": 0.03, "tau_p": 3.0}]),
+    Entry("series_resistance", lambda p, V_max: p,
+          lambda p: [FreeParameter("R_s", True, 1e4, 1e12)],
+          "a resistance between the source and the device (safety resistors, cables): the device charges "
+          "through R_s",
+          # R_s = 0 has no logarithm: start from a charging time of ~0.3 ms (about the ideal source)
+          starts=lambda p: [{"R_s": 3e5}]),
 ]
 
 NOMINAL = [
-    Entry(f"nominal:{key}", lambda p: p, (lambda key: lambda p: [FreeParameter(key, True, getattr(p, key) / 5,
+    Entry(f"nominal:{key}", lambda p, V_max: p, (lambda key: lambda p: [FreeParameter(key, True, getattr(p, key) / 5,
                                                                               getattr(p, key) * 5)])(key),
           f"the nominal {key} is off", kind="nominal")
     for key in ("t_lz", "rho_f", "eps_r_l", "b")

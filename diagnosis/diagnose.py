@@ -6,8 +6,8 @@ catalog and the nominal values.
 3. Forward selection: every catalog entry and every nominal correction is fitted on top
    of the current model (all its free parameters re-fitted jointly). The best by BIC is
    kept when it lowers BIC by more than BIC_MIN *and* the held-out RMSE by more than
-   HELDOUT_MIN (data it was not fitted to); then the next round, on top of it, until
-   nothing passes or MAX_ROUNDS. A kept catalog entry is missing physics; a kept
+   HELDOUT_MIN (data it was not fitted to); then the next round, on top of it, with the
+   candidates that lowered BIC in the first round, until nothing passes or MAX_ROUNDS. A kept catalog entry is missing physics; a kept
    nominal correction a parameter error (reported under corrected_parameters).
 4. "No missing physics found" when no catalog entry is kept.
 
@@ -55,8 +55,16 @@ class Diagnosis:
 
 def _evidence(f, ref) -> dict:
     return {"delta_bic": f.bic - ref.bic, "delta_aic": f.aic - ref.aic, "train_rmse": f.train_rmse,
+            "wall_time": f.wall_time, "model_runs": f.runs,
             "heldout_rmse": f.heldout_rmse, "heldout_reduction": (1 - f.heldout_rmse / ref.heldout_rmse)
             if f.heldout_rmse is not None and ref.heldout_rmse else None, "parameters": f.parameters_dict()}
+
+
+def _promising(ev) -> bool:
+    """Whether a candidate's first-round evidence earns it a place in later rounds: it
+    lowered BIC at all (an effect that explains nothing alone rarely starts to once
+    another is modelled; it saves most of the later rounds' fits)."""
+    return ev is not None and "error" not in ev and ev["delta_bic"] < 0
 
 
 def _accept(f, ref) -> bool:
@@ -83,30 +91,42 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         windows = locate(dataset, f0)
         trends = condition_trends(dataset, windows)
         pool = list(candidates) if candidates is not None else PHYSICS + NOMINAL
+        V_max = max(abs(r.hold_voltage) for r in dataset.recordings)
         kept, rounds, current = [], [], f0
         for rnd in range(MAX_ROUNDS):
             ev, fits = {}, {}
             for e in pool:
-                if e in kept:
+                if any(k.name == e.name for k in kept):     # one form of an entry at most
                     continue
-                p = e.prepare(current.params)
+                if rounds and not _promising(rounds[0].get(e.key)):
+                    # it did not lower BIC at all on its own: it is not refitted on top
+                    continue
+                p = e.prepare(current.params, V_max)
                 spec = baseline_spec(p) + [fp for k in kept for fp in k.spec(p)] + e.spec(p)
-                say(f"round {rnd + 1}: {e.name}")
-                try:
-                    f = fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=current)
-                except Exception as exc:   # a candidate the model cannot run: evidence says why
-                    ev[e.name] = {"error": f"{type(exc).__name__}: {exc}"}
+                say(f"round {rnd + 1}: {e.key}")
+                best, errors = None, []
+                for st in (e.starts(p) if e.starts else [{}]):
+                    try:
+                        f = fit(dataset, spec, base=p.replace(**st) if st else p, holdout=holdout,
+                                executor=executor, warm=current)
+                    except Exception as exc:   # a candidate the model cannot run: evidence says why
+                        errors.append(f"{type(exc).__name__}: {exc}")
+                        continue
+                    if best is None or f.cost < best.cost:
+                        best = f
+                if best is None:
+                    ev[e.key] = {"error": "; ".join(errors)}
                     continue
-                fits[e.name] = f
-                ev[e.name] = _evidence(f, current)
+                fits[e.key] = best
+                ev[e.key] = _evidence(best, current)
             rounds.append(ev)
             ok = [n for n, f in fits.items() if _accept(f, current)]
             if not ok:
                 break
-            best = min(ok, key=lambda n: fits[n].bic)
-            kept.append(next(e for e in pool if e.name == best))
-            current = fits[best]
-            say(f"kept {best}: BIC {ev[best]['delta_bic']:+.1f}, held out {_um(current.heldout_rmse)}")
+            best_key = min(ok, key=lambda n: fits[n].bic)
+            kept.append(next(e for e in pool if e.key == best_key))
+            current = fits[best_key]
+            say(f"kept {best_key}: BIC {ev[best_key]['delta_bic']:+.1f}, held out {_um(current.heldout_rmse)}")
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall)
     finally:
         if own:

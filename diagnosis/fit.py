@@ -137,6 +137,7 @@ class FitResult:
     wall_time: float
     runs: int
     notes: list = field(default_factory=list)
+    cov_z: np.ndarray | None = None   # covariance of the spec's globals in their fitted coordinates
 
     @property
     def bic(self) -> float:
@@ -312,4 +313,4 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
                      offsets=offsets, simulated=simulated, train_rmse=math.sqrt(sq["train"][0] / sq["train"][1]),
                      heldout_rmse=math.sqrt(sq["held"][0] / sq["held"][1]) if held else None, rss=rss, n=n,
                      k=k + 2 * R, cost=float(sol.cost), wall_time=time.perf_counter() - wall, runs=runner.runs,
-                     notes=notes)
+                     notes=notes, cov_z=cov[:k, :k].copy())

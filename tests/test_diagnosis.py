@@ -1,7 +1,7 @@
-"""Mismatch diagnosis on synthetic datasets with concealed truths (dfa_model.synthetic):
-a null dataset (only the nominal rho_l wrong), a hidden stiffness, a wrong nominal t_lz.
-Small and short (N = 41, 1 s reset + 5 s hold, 3 loads x 2 repetitions) to keep CI fast;
-the effects stay visible at that size."""
+"""Mismatch diagnosis on synthetic datasets (dfa_model.synthetic): a null dataset (only
+the nominal rho_l wrong), a wrong nominal t_lz, a bad dataset. Small and short (N = 41,
+1 s reset + 5 s hold, 3 loads x 2 repetitions) to keep CI fast. The concealed effects,
+one per catalog entry and a combined case, are in test_diagnosis_proof.py."""
 from __future__ import annotations
 
 import json
@@ -34,11 +34,6 @@ def null(tmp_path_factory):
     return _diagnose(tmp_path_factory, "null", TRUTH, 11)
 
 
-@pytest.fixture(scope="module")
-def stiff(tmp_path_factory):
-    return _diagnose(tmp_path_factory, "stiff", TRUTH.replace(k=300.0), 12)
-
-
 def test_null_dataset_reports_no_missing_physics(null):
     D, report, drawn, out = null
     assert report["missing_physics"] == [] and report["fit"]["improved"] is None
@@ -61,23 +56,6 @@ def test_null_dataset_reports_no_missing_physics(null):
     assert set(on_disk) >= {"mismatch", "missing_physics", "corrected_parameters", "located", "fit"}
     assert set(on_disk["fit"]["baseline"]) >= {"parameters", "train_rmse", "heldout_rmse"}
     assert (out / "report.md").is_file() and (out / "residuals.png").is_file()
-
-
-def test_hidden_stiffness_is_named_fitted_and_proved_on_held_out_data(stiff):
-    D, report, drawn, out = stiff
-    assert report["mismatch"] and report["located"]
-    names = [m["name"] for m in report["missing_physics"]]
-    assert names[:1] == ["stiffness"], report["candidates"][0]
-    k = report["missing_physics"][0]["parameters"]["k"]
-    assert k["value"] == pytest.approx(300.0, rel=0.15)
-    base, imp = report["fit"]["baseline"], report["fit"]["improved"]
-    assert imp["heldout_rmse"] <= 0.5 * base["heldout_rmse"]
-    assert imp["heldout_rmse"] < 1.3 * D.baseline.sigma
-    assert (out / "fitted_terms.png").is_file()
-    # not concealed at this size (k x = 0.26 N at 0.87 mm): the static stroke is off by
-    # 50-150 um, and the improved model's speed error is within the spread
-    for h in report["headline"]:
-        assert abs(h["speed_error_improved"]) <= max(h["speed_spread"], 0.5e-6) * 2
 
 
 def test_a_wrong_nominal_value_is_corrected_not_taken_for_missing_physics(tmp_path_factory):
