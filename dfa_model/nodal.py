@@ -194,6 +194,7 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     a0 = 0.0
     a1 = 0.0
     epsV = mat[EPS_L] * Vd
+    iu0 = 1.0 / mat[U0]
     if const:
         c_lf = 1.0 / (lawp[0] * mat[EPS_L]) - 1.0 / mat[TAU_F]
         a0 = epsV * c_lf / mat[U0]
@@ -210,13 +211,11 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
                 tri[e + 1, 0] += a1 * ds / 6.0
                 tri[e + 1, 1] += a1 * ds / 3.0
             if rs:
-                iu0 = 1.0 / mat[U0]
                 m1s += ds * iu0
                 jbe[2 * nq + e] += 0.5 * ds * iu0
                 jbe[2 * nq + e + 1] += 0.5 * ds * iu0
                 SJ += itau_l * ds * iu0 * (epsV - 0.5 * t0 * (qa + qb))
             if pol:   # sigma_l = (eps_l V - T0 q')/u0, linear in s
-                iu0 = 1.0 / mat[U0]
                 ydot[po + e] += ds * iu0 * (0.5 * epsV - t0 * (qa / 3.0 + qb / 6.0))
                 ydot[po + e + 1] += ds * iu0 * (0.5 * epsV - t0 * (qa / 6.0 + qb / 3.0))
                 if jac:
@@ -299,6 +298,7 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
         ydot[nbord + e] += b0
         ydot[nbord + e + 1] += b1
     chi, itp = mat[CHI_P], 1.0 / mat[TAU_P]
+    X = SJ      # the device current without its dV_d/dt and gap-motion terms (series resistance)
     for i in range(nq):
         mi = ds if 0 < i < nq - 1 else 0.5 * ds      # lumped mass
         ydot[nbord + i] /= mi
@@ -310,18 +310,17 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
             Pd = (chi * ydot[po + i] / mi - y[po + i]) * itp
             ydot[po + i] = Pd
             ydot[nbord + i] += Pd
+            if rs:
+                X += Pd * mi
             if jac:
                 for c in range(3):
                     tri[i, 3 + c] *= chi * itp / mi
                     tri[i, c] += tri[i, 3 + c]
+        if rs:
+            X -= t0 * ydot[nbord + i] * jbe[2 * nq + i]
     Fe = mat[W] / (2.0 * mat[EPS_L]) * kin[1] * T
     mech_rhs(cfg, mat, F, y, Fe, ydot)
     if rs:
-        X = SJ
-        for i in range(nq):
-            X -= t0 * ydot[nbord + i] * jbe[2 * nq + i]
-            if pol:
-                X += ydot[po + i] * (ds if 0 < i < nq - 1 else 0.5 * ds)
         kap = kin[1] * SAD / (mat[EPS_L] * m1s)     # d(V_d')/d(x'): the moving gap's current
         X -= kin[1] * stroke_velocity(cfg, mat, y, ydot) * SAD
         ydot[nlast] = ((V - Vd) / (mat[W] * mat[R_S]) - X) / (mat[EPS_L] * m1s)
