@@ -212,22 +212,21 @@ def plot_terms(D, path) -> bool:
             ax.fill_between(t, lo, hi, color="C2", alpha=0.25)
             ax.set_xlabel("time after a voltage step (s)")
             ax.set_ylabel("liquid's extra permittivity / eps_l")
-            ax.set_title(f"polarization branch: chi_p = {chi:.3g} +- {f.stderr['chi_p']:.2g}, "
+            ax.set_title(f"polarization branch: chi_p = {chi:.3g} +- {f.stderr['chi_p']:.2g},\n"
                          f"tau_p = {tau:.3g} +- {f.stderr['tau_p']:.2g} s", fontsize=9)
         elif e.name == "series_resistance":
             from dfa_model.equations import R_C
             from dfa_model.model import DFAModel
             m = DFAModel(f.params.replace(R_s=0.0))
-            t = None
-            for x, ls, lab in ((0.0, "-", "open (x = 0)"), (0.999 * make(f.params).x_e, "--", "zipped")):
-                C = m.diagnostics(m.initial_state(x), 1000.0)[0][R_C]
-                tau = f.values["R_s"] * C
-                t = np.linspace(0, 5 * tau, 100) if t is None else t
+            cases = [(0.0, "-", "open (x = 0)"), (0.999 * make(f.params).x_e, "--", "zipped")]
+            taus = [f.values["R_s"] * m.diagnostics(m.initial_state(x), 1000.0)[0][R_C] for x, _, _ in cases]
+            t = np.linspace(0, 5 * max(taus), 200)     # long enough for the slower (zipped) charging
+            for (x, ls, lab), tau in zip(cases, taus):
                 ax.plot(t * 1e3, 1 - np.exp(-t / tau), ls=ls, color="C2", label=f"{lab}: R_s C = {tau * 1e3:.3g} ms")
             ax.set_xlabel("time after a voltage step (ms)")
             ax.set_ylabel("device voltage / source voltage")
             ax.legend(fontsize=8)
-            ax.set_title(f"series resistance R_s = {f.values['R_s']:.3g} +- {f.stderr['R_s']:.2g} ohm", fontsize=9)
+            ax.set_title(f"series resistance\nR_s = {f.values['R_s']:.3g} +- {f.stderr['R_s']:.2g} ohm", fontsize=9)
         else:
             keys = [fp.key for fp in e.spec(f.params)]
             ax.errorbar(range(len(keys)), [f.values[k] for k in keys], yerr=[f.stderr[k] for k in keys], fmt="o")
@@ -273,6 +272,8 @@ def _plot_law(ax, f):
         ax.legend(fontsize=8)
     ax.set_xscale("log")
     ax.set_yscale("log")
+    from matplotlib.ticker import NullFormatter
+    ax.xaxis.set_minor_formatter(NullFormatter())    # a decade's minor labels overlap
     ax.set_xlabel("|E_l| (MV/m)")
     ax.set_ylabel("rho_l (ohm m)")
     ax.set_title("field-dependent resistivity: " + ("Eq. (21)" if p.law == "linear" else "monotone spline"),
