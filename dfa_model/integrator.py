@@ -309,6 +309,12 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         ntr = 1
     hn = ist[I_HN]
     h = hn
+    # the first step accepted after the last voltage jump: the next jump starts there
+    # rather than at the step the previous segment ended with (with a series
+    # resistance a jump starts an R_s C transient of a fraction of a millisecond, and
+    # shrinking to it from a 10 ms step took ~8 rejected steps at every switch)
+    h_jump = -1.0
+    after_jump = False
     t_end = seg_t[nseg]
     hmin = 1e-14 * max(1.0, abs(t_end))
     for sidx in range(nseg):
@@ -337,6 +343,10 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
         else:
             rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
             nfev += 1
+            if V0 != Vleft and cfg[C_RS] != 0:
+                if h_jump > 0.0:
+                    hn = min(hn, h_jump)
+                after_jump = True
             if jac_ok and V0 == -Vleft and V0 != 0.0 and F0 == Fleft and cfg[C_RS] == 0:
                 # polarity inversion: the q-x couplings scale with A = eps_l V - T0 q and
                 # flip sign, the rest is unchanged for small q; a good Newton matrix for
@@ -509,6 +519,9 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 continue
             # ---- accepted
             nsteps += 1
+            if after_jump:
+                h_jump = h
+                after_jump = False
             if sliding:
                 changed = False
                 if stuck >= 0:

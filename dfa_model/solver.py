@@ -85,7 +85,7 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
     rtol = p.rtol if rtol is None else _rtol(rtol)
     check_mechanics(model, mat[K], np.max(np.abs(np.concatenate([V0, V0 + Vs * np.diff(t)]))),
                     np.max(np.abs(np.concatenate([F0, F0 + Fs * np.diff(t)]))))
-    scale = model.scales(protocol.amplitude)
+    scale = model.scales(protocol.amplitude, energy)
     h0 = min(1e-6, T / 100)
     xc = model.force_jumps()
     wall = time.perf_counter()

@@ -9,7 +9,7 @@ Each recording is the paper's routine (Sec. 4.2): a charge reset (bipolar, 100 %
 the test amplitude, `reset_frequency`) for `reset` s, then a DC hold for `hold` s, sampled
 at 1 / dt, run on the full model with the truth parameters, then measured:
 - the repetition's liquid resistivity differs from the truth's by a factor
-  exp(N(0, rho_spread)) (rho_l; with the linear law its intercept q_rho and floor rho_min);
+  exp(N(0, rho_spread)) at every field (scaled_resistivity);
 - the laser sensor adds white noise of `noise` m RMS, reads relative to a zero that is off
   by N(0, offset) m per recording, and rounds to `quantum` m;
 - the voltage channel adds white noise of `voltage_noise` V RMS (levels stay levels);
@@ -36,6 +36,9 @@ from .solver import simulate
 from .waveforms import Protocol
 
 
+TRUTH_RTOL = 1e-7   # the truth model's integrator tolerance (at most)
+
+
 @dataclass
 class Measurement:
     noise: float = 2e-6            # sensor white noise, RMS (m)
@@ -55,10 +58,11 @@ class Measurement:
 
 
 def scaled_resistivity(p: Parameters, factor: float) -> Parameters:
-    """p with its liquid resistivity scaled (the constant law's rho_l; the linear law's
-    intercept q_rho and floor rho_min)."""
+    """p with its liquid resistivity times `factor` at every field: the constant and the
+    spline law's rho_l (the spline's knots are relative to it); the linear law's slope
+    m_rho, intercept q_rho and floor rho_min."""
     if p.law == "linear":
-        return p.replace(q_rho=p.q_rho * factor, rho_min=p.rho_min * factor)
+        return p.replace(m_rho=p.m_rho * factor, q_rho=p.q_rho * factor, rho_min=p.rho_min * factor)
     return p.replace(rho_l=p.rho_l * factor)
 
 
@@ -91,7 +95,8 @@ def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = Non
             factor = float(np.exp(rng.normal(0.0, meas.rho_spread)))
             offset = float(rng.normal(0.0, meas.offset))
             p = scaled_resistivity(truth, factor)
-            res = simulate(p, protocol, load=F, t_eval=t, warn=False)
+            # the rig measures the physics, not our integrator's error at its tolerance
+            res = simulate(p, protocol, load=F, t_eval=t, warn=False, rtol=min(p.rtol, TRUTH_RTOL))
             x = res.trace(t)
             x_meas = x + offset + rng.normal(0.0, meas.noise, t.size)
             if meas.quantum > 0:

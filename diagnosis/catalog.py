@@ -2,10 +2,12 @@
 correct. Each entry is a piece of the one model (a Parameters key or law), so a fitted
 entry runs unchanged in the CLI, the FMU and the surrogates.
 
-Adding an entry: an `Entry(name, prepare, spec)` below - `prepare(p, V_max)` switches the
-physics on at a neutral start (it must not change the model's output there), `spec(p)`
-lists its free parameters (diagnosis.model.FreeParameter) - and, if it is new physics, its
-key in dfa_model (parameters.py, and the model's equations).
+Adding an entry: an `Entry(name, prepare, spec)` below - `prepare(p, ctx)` switches the
+physics on at a neutral start (it must not change the model's output there), `spec(p, ctx)`
+lists its free parameters (diagnosis.model.FreeParameter; ctx: the dataset's `Context`,
+its voltages and reference field) - and, if it is new physics, its key in dfa_model
+(parameters.py, and the model's equations). `shows` names the model keys the report gives
+when the fit's coordinates are not keys themselves (a resistivity law's).
 
 Optional: `starts(p)` - start values (dicts of keys) to try when the neutral start cannot
 move (a time constant whose strength starts at 0, a resistance in log coordinates); the
@@ -25,20 +27,37 @@ from typing import Callable
 from dfa_model.kinematics import make
 from dfa_model.parameters import Parameters
 
-from .model import FreeParameter, resistivity_key
+from .model import Coordinate, FreeParameter, zipped_field
 
 CATALOG_IDS = ("field_dependent_resistivity", "polarization_branch", "stiffness", "series_resistance", "inertia")
 
 
 @dataclass(frozen=True)
+class Context:
+    """What the catalog needs to know of a dataset: its largest and middle hold voltage
+    (V) and the reference field of the resistivity laws (V/m: the zipped liquid's field at
+    the middle voltage, under the nominal actuator)."""
+    V_max: float
+    V_ref: float
+    E_ref: float
+
+    @classmethod
+    def of(cls, dataset) -> "Context":
+        V = sorted(abs(r.hold_voltage) for r in dataset.recordings)
+        V_ref = float(V[len(V) // 2])
+        return cls(float(V[-1]), V_ref, zipped_field(dataset.params, V_ref))
+
+
+@dataclass(frozen=True)
 class Entry:
     name: str
-    prepare: Callable[[Parameters, float], Parameters]   # (p, the dataset's largest |V|)
-    spec: Callable[[Parameters], list]
+    prepare: Callable[[Parameters, Context], Parameters]
+    spec: Callable[[Parameters, Context], list]
     description: str
     kind: str = "physics"          # 'physics' (missing physics) or 'nominal' (a corrected value)
     starts: Callable[[Parameters], list] | None = None
     variant: str = ""
+    shows: tuple = ()              # model keys to report (default: the spec's keys)
 
     @property
     def key(self) -> str:
@@ -51,12 +70,7 @@ def _force_scale(p: Parameters) -> float:
     return 1.0 / make(p).x_e
 
 
-def _field_scale(p: Parameters) -> float:
-    """Typical liquid field in the zipped region at 10 kV (V/m)."""
-    return 1e4 / (p.t_lz + 2.0 * p.t_f * p.eps_r_l / p.eps_r_f)
-
-
-def _linear_law(p: Parameters, V_max: float) -> Parameters:
+def _linear_law(p: Parameters, ctx: Context) -> Parameters:
     if p.law == "linear":
         return p
     return p.replace(law="linear", q_rho=p.rho_l, m_rho=0.0, rho_min=0.01 * p.rho_l)
@@ -65,44 +79,55 @@ def _linear_law(p: Parameters, V_max: float) -> Parameters:
 def spline_knots(p: Parameters, V_max: float) -> tuple[float, float]:
     """(E_lo, E_hi) for the spline law: a decade below 1.2 x the zipped region's field at
     the dataset's highest voltage - where the recordings probe the law."""
-    E_hi = 1.2 * V_max / (p.t_lz + 2.0 * p.t_f * p.eps_r_l / p.eps_r_f)
+    E_hi = 1.2 * zipped_field(p, V_max)
     return E_hi / 10.0, E_hi
 
 
-def _spline_law(p: Parameters, V_max: float) -> Parameters:
+def _spline_law(p: Parameters, ctx: Context) -> Parameters:
     if p.law == "spline":
         return p
-    E_lo, E_hi = spline_knots(p, V_max)
+    E_lo, E_hi = spline_knots(p, ctx.V_max)
     return p.replace(law="spline", E_lo=E_lo, E_hi=E_hi, d_rho1=0.0, d_rho2=0.0, d_rho3=0.0)
 
 
+def _no_change(p: Parameters, ctx: Context) -> Parameters:
+    return p
+
+
 PHYSICS = [
-    Entry("stiffness", lambda p, V_max: p,
-          lambda p: [FreeParameter("k", False, 0.0, 1e6, scale=_force_scale(p))],
+    Entry("stiffness", _no_change,
+          lambda p, ctx: [FreeParameter("k", False, 0.0, 1e6, scale=_force_scale(p))],
           "an elastic restoring force k x (films, bonded edges, a compliant load)"),
-    Entry("inertia", lambda p, V_max: p,
-          lambda p: [FreeParameter("m", False, 0.0, 100.0, scale=0.01)],
+    Entry("inertia", _no_change,
+          lambda p, ctx: [FreeParameter("m", False, 0.0, 100.0, scale=0.01)],
           "a generalized mass m (the stroke's acceleration)",
           # the fit is not convex in m (the zipping transient rings once m/b nears the
           # sample period): from 0 alone it stopped at m = 0.0075 against a true 0.074
           starts=lambda p: [{}, {"m": 0.05}]),
+    # the level (rho_l at E_ref) is the baseline's coordinate under a law; these shape it
     Entry("field_dependent_resistivity", _linear_law,
-          # q_rho, the level, is the baseline's resistivity key under this law
-          lambda p: [FreeParameter("m_rho", False, -1e20, 1e20, scale=p.q_rho / _field_scale(p))],
-          "the liquid's resistivity depends on its field: Eq. (21), rho_l = m_rho |E_l| + q_rho", variant="Eq. 21"),
+          # s_rho = m_rho E_ref / rho_l(E_ref): the law's relative slope there (-1: rho_l
+          # halves when the field grows by half; bounded so that q_rho stays positive)
+          lambda p, ctx: [FreeParameter("s_rho", False, -100.0, 0.95, scale=0.3,
+                                        coord=Coordinate("slope", ctx.E_ref))],
+          "the liquid's resistivity depends on its field: Eq. (21), rho_l = m_rho |E_l| + q_rho", variant="Eq. 21",
+          shows=("m_rho", "q_rho")),
     Entry("field_dependent_resistivity", _spline_law,
-          # rho_l, the level below the first knot, is the baseline's key; the drops shape it
-          lambda p: [FreeParameter(k, False, 0.0, 20.0, scale=0.3) for k in ("d_rho1", "d_rho2", "d_rho3")],
+          lambda p, ctx: [FreeParameter(k, False, 0.0, 20.0, scale=0.3, coord=Coordinate("drop", ctx.E_ref, k))
+                          for k in ("d_rho1", "d_rho2", "d_rho3")],
           "the liquid's resistivity depends on its field: a monotone spline of ln rho_l in ln |E_l|",
-          variant="spline"),
-    Entry("polarization_branch", lambda p, V_max: p,
-          lambda p: [FreeParameter("chi_p", False, 0.0, 5.0, scale=0.05), FreeParameter("tau_p", True, 1e-3, 1e3)],
+          variant="spline", shows=("rho_l", "d_rho1", "d_rho2", "d_rho3")),
+    Entry("polarization_branch", _no_change,
+          lambda p, ctx: [FreeParameter("chi_p", False, 0.0, 5.0, scale=0.05),
+                          FreeParameter("tau_p", True, 1e-3, 1e3)],
           "a fast dielectric relaxation of the liquid (volume or screening charges): a second RC branch per "
           "element, strength chi_p = delta eps/eps_l, time constant tau_p",
           # from chi_p = 0 the time constant cannot move: start from a small branch, fast or slow
           starts=lambda p: [{"chi_p": 0.03, "tau_p": 0.3}, {"chi_p": 0.03, "tau_p": 3.0}]),
-    Entry("series_resistance", lambda p, V_max: p,
-          lambda p: [FreeParameter("R_s", True, 1e4, 1e12)],
+    Entry("series_resistance", _no_change,
+          # down to 100 ohm: the ideal source within 0.3 um (1e4 ohm still moved the
+          # zipping transient by 3 um, so the entry could not nest the model it extends)
+          lambda p, ctx: [FreeParameter("R_s", True, 1e2, 1e12)],
           "a resistance between the source and the device (safety resistors, cables): the device charges "
           "through R_s",
           # R_s = 0 has no logarithm: start from a charging time of ~0.3 ms (about the ideal source)
@@ -110,12 +135,16 @@ PHYSICS = [
 ]
 
 NOMINAL = [
-    Entry(f"nominal:{key}", lambda p, V_max: p, (lambda key: lambda p: [FreeParameter(key, True, getattr(p, key) / 5,
-                                                                              getattr(p, key) * 5)])(key),
+    Entry(f"nominal:{key}", _no_change,
+          (lambda key: lambda p, ctx: [FreeParameter(key, True, getattr(p, key) / 5, getattr(p, key) * 5)])(key),
           f"the nominal {key} is off", kind="nominal")
     for key in ("t_lz", "rho_f", "eps_r_l", "b")
 ]
 
 
-def baseline_spec(p: Parameters) -> list:
-    return [FreeParameter(resistivity_key(p), True, 1e8, 1e16)]
+def baseline_spec(p: Parameters, ctx: Context) -> list:
+    """The liquid's resistivity level: rho_l under the constant law; under a field law its
+    value at the reference field (model.Coordinate 'level')."""
+    if p.law == "constant":
+        return [FreeParameter("rho_l", True, 1e8, 1e16)]
+    return [FreeParameter("rho_ref", True, 1e8, 1e16, coord=Coordinate("level", ctx.E_ref))]

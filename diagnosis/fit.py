@@ -38,7 +38,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.sparse import lil_matrix
+from scipy.sparse import csr_matrix
+from threadpoolctl import threadpool_limits
 
 from dfa_model.parameters import Parameters
 from dfa_model.synthetic import scaled_resistivity
@@ -49,7 +50,22 @@ SIGMA_REP = 0.05     # prior SD of log(rho_l) between repetitions
 DELTA_BOUND = 0.5    # |delta_i| at most (a factor 1.65)
 DECIMATE = 5
 OFFSET_PRIOR = 20e-6 # prior SD of a sensor's zero offset (m)
+# the search's step tolerance (scipy's xtol: relative to the norm of the fitted
+# coordinates, which ln rho_l ~ 28 dominates: 1e-5 stops at steps of ~3e-4 in z, a
+# hundredth of a typical standard error; 1e-6 spent 2-3 more runs of every recording
+# shrinking a trust region the model's integration roughness would not let it cross)
+XTOL = 1e-5
+PIN = 30.0           # weight of the zero-sum pin on the factors, against one factor's prior
+DENSE_MAX = 4_000_000  # Jacobian entries up to which it is dense (32 MB)
+# the integrator's tolerance in fits: the model's output moves in small jumps as its
+# adaptive steps change with the parameters, and at the default 1e-4 those jumps put
+# ~65 (chi-square units) of noise on the cost of 3 recordings along a 1e-3 change of
+# rho_l - the search stalled in it (no step lowered the cost, the trust region shrank
+# to nothing) and candidates' BIC differences scattered by tens. At 1e-5: ~1, for
+# twice the steps
+FIT_RTOL = 1e-5
 FD_STEP = 0.02       # finite-difference step in the fitted coordinates (log: 2 %)
+VERBOSE = int(os.environ.get("DFA_FIT_VERBOSE", "0"))
 FAILED = 1e3         # residual (in noise units) of a sample whose run failed: the step is rejected
 
 
@@ -111,8 +127,17 @@ class Runner:
         return list(self.executor.map(_run, jobs))
 
 
+def one_blas_thread():
+    """Limit BLAS (OpenBLAS, MKL) to one thread in this process. The fit's vector
+    operations (scipy's trust-region steps: norms and products over ~1e4 residuals) take
+    2 us on one thread, but 0.2-3.5 ms when OpenBLAS spreads them over threads that spin
+    for cores the model runs already hold: a 1000x slowdown, most of a diagnosis's wall
+    time on a loaded 2-core machine."""
+    threadpool_limits(1)
+
+
 def local_executor(workers=None):
-    return ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1)
+    return ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, initializer=one_blas_thread)
 
 
 @dataclass
@@ -138,6 +163,8 @@ class FitResult:
     runs: int
     notes: list = field(default_factory=list)
     cov_z: np.ndarray | None = None   # covariance of the spec's globals in their fitted coordinates
+    z: np.ndarray | None = None       # the spec's globals in their fitted coordinates
+    lsq: dict | None = field(default=None, repr=False)   # the search's end: Jacobian, residuals, factors (screen.py)
 
     @property
     def bic(self) -> float:
@@ -153,6 +180,20 @@ class FitResult:
 
     def parameters_dict(self) -> dict:
         return {f.key: {"value": self.values[f.key], "stderr": self.stderr[f.key]} for f in self.spec}
+
+    def model_values(self, keys) -> dict:
+        """{key: {value, stderr}} for model keys (Parameters attributes) at the fit, their
+        errors carried from the fitted coordinates' covariance (delta method): what a
+        law fitted in coordinates of its own (model.Coordinate) is in its own keys."""
+        v0 = np.array([float(getattr(self.params, k)) for k in keys])
+        J = np.zeros((len(keys), len(self.spec)))
+        for i in range(len(self.spec)):
+            zp = np.array(self.z, float)
+            zp[i] += 1e-6
+            q = apply(self.base, self.spec, zp)
+            J[:, i] = (np.array([float(getattr(q, k)) for k in keys]) - v0) / 1e-6
+        var = np.einsum("ij,jk,ik->i", J, self.cov_z, J) if self.cov_z is not None else np.zeros(len(keys))
+        return {k: {"value": float(v), "stderr": float(math.sqrt(max(s2, 0.0)))} for k, v, s2 in zip(keys, v0, var)}
 
 
 def choose_holdout(dataset) -> list:
@@ -171,39 +212,75 @@ def choose_holdout(dataset) -> list:
     return []
 
 
+class Problem:
+    """Whitened residuals of training recordings against runs of the model: per recording
+    every `decimate`-th sample of (measured - model - sensor offset) / sigma, then one
+    prior row per recording's log resistivity factor (delta / sigma_rep) and, with a
+    common level in the fit, the zero-sum pin of the factors."""
+
+    def __init__(self, recs, runner, sigma, sigma_rep, decimate, pin):
+        self.recs, self.runner, self.sigma, self.sigma_rep = recs, runner, sigma, sigma_rep
+        self.idx = [np.arange(0, len(r.t), decimate) for r in recs]
+        self.offs = np.concatenate([[0], np.cumsum([len(i) for i in self.idx])])
+        self.n, self.R, self.pin = int(self.offs[-1]), len(recs), int(pin)
+
+    def runs(self, p: Parameters, deltas, rtol=FIT_RTOL) -> list:
+        """Each recording on the model p with its resistivity factor exp(delta): strokes at
+        every sample, or a message for a run that failed. The integrator's tolerance is at
+        most rtol."""
+        if p.rtol > rtol:
+            p = p.replace(rtol=rtol)
+        return self.runner([(scaled_resistivity(p, math.exp(d)), r.protocol, r.load, r.t)
+                            for d, r in zip(deltas, self.recs)])
+
+    def residuals(self, xs, deltas) -> np.ndarray:
+        n, R = self.n, self.R
+        out = np.empty(n + R + self.pin)
+        for j, (r, xm) in enumerate(zip(self.recs, xs)):
+            sl = slice(self.offs[j], self.offs[j + 1])
+            if isinstance(xm, str):
+                out[sl] = FAILED
+                continue
+            out[sl] = (r.stroke[self.idx[j]] - xm[self.idx[j]] - sensor_offset(r.stroke, xm, self.sigma)) / self.sigma
+        out[n:n + R] = np.asarray(deltas) / self.sigma_rep
+        if self.pin:
+            out[n + R] = PIN * np.sum(deltas) / self.sigma_rep
+        return out
+
+
 def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0=None):
     """Least squares over `recs`: the spec's globals (none: base fixed) and one delta per
     recording, each recording's offset read at rest (sensor_offset). Returns (the
-    least_squares result, the number of fitted samples, the model's strokes at every
-    sample at the solution)."""
+    least_squares result, the Problem, the model's strokes at every sample at the
+    solution)."""
     k, R = len(spec), len(recs)
-    idx = [np.arange(0, len(r.t), decimate) for r in recs]
     x0 = np.concatenate([np.asarray(z0, float), np.zeros(R) if d0 is None else np.asarray(d0, float)])
     lo = np.array([f.z_bounds()[0] for f in spec] + [-DELTA_BOUND] * R)
     hi = np.array([f.z_bounds()[1] for f in spec] + [DELTA_BOUND] * R)
     x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-9, lo), np.where(np.isfinite(hi), hi - 1e-9, hi))
-    offs = np.concatenate([[0], np.cumsum([len(i) for i in idx])])
-    n = int(offs[-1])
+    level = k > 0 and spec[0].is_level
+    # with a common level in the fit, the recordings' factors are pinned to a zero sum:
+    # the optimum has it anyway (a shift of the level against every factor leaves the
+    # data as they are and changes only the prior, least at zero mean), and without the
+    # pin that shift is a long valley that only the prior curves, along which the
+    # search crawled and stopped early (factors all at +0.12 to +0.3)
+    prob = Problem(recs, runner, sigma, sigma_rep, decimate, level and R > 1)
+    n, pin, offs = prob.n, prob.pin, prob.offs
+    # the trust-region steps solved exactly (SVD of a dense Jacobian) while it is small:
+    # the iterative solver (LSMR) resolved the directions the data pin and neglected the
+    # flat ones the priors alone curve (a common level against every recording's factor),
+    # so the search stopped short in them
+    dense = (n + R + pin) * (k + R) <= DENSE_MAX
 
     def simulate_all(x):
-        p = apply(base, spec, x[:k])
-        return runner([(scaled_resistivity(p, math.exp(x[k + j])), r.protocol, r.load, r.t)
-                       for j, r in enumerate(recs)])
+        return prob.runs(apply(base, spec, x[:k]), x[k:])
 
     def fun(x):
         xs = simulate_all(x)
         last_runs[x.tobytes()] = xs
-        out = np.empty(n + R)
-        for j, (r, xm) in enumerate(zip(recs, xs)):
-            sl = slice(offs[j], offs[j + 1])
-            if isinstance(xm, str):
-                out[sl] = FAILED
-                continue
-            out[sl] = (r.stroke[idx[j]] - xm[idx[j]] - sensor_offset(r.stroke, xm, sigma)) / sigma
-        out[n:] = x[k:] / sigma_rep
         if progress:
             progress(f"{runner.runs} runs")
-        return out
+        return prob.residuals(xs, x[k:])
 
     last, last_runs = {}, {}
 
@@ -218,34 +295,66 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     def jac(x):
         # forward differences of FD_STEP in z (an adaptive solver's output is rough on
         # the scale of its tolerance: smaller steps measure that, not the derivative);
-        # one batch per global, and one for all deltas at once (disjoint rows)
+        # one batch per global, and one for all deltas at once (disjoint rows). Built as
+        # COO triplets: a global's column is dense over the samples, a delta's holds its
+        # recording's samples and its prior's row
         f0 = fun_cached(x)
-        J = lil_matrix((n + R, k + R))
+        rows, cols, vals = [], [], []
+        d_level = None
         for i in range(k):
             h = FD_STEP if x[i] + FD_STEP <= hi[i] else -FD_STEP
             xp = x.copy()
             xp[i] += h
             d = (fun(xp) - f0) / h
             last_runs.pop(xp.tobytes(), None)
-            for j in range(R):
-                J[offs[j]:offs[j + 1], i] = d[offs[j]:offs[j + 1], None]
+            rows.append(np.arange(n))
+            cols.append(np.full(n, i))
+            vals.append(d[:n])
+            if i == 0 and level and h > 0:
+                d_level = d
         if R:
             hs = np.where(x[k:] + FD_STEP <= hi[k:], FD_STEP, -FD_STEP)
-            xp = x.copy()
-            xp[k:] += hs
-            d = fun(xp) - f0
-            last_runs.pop(xp.tobytes(), None)
-            for j in range(R):
-                J[offs[j]:offs[j + 1], k + j] = d[offs[j]:offs[j + 1], None] / hs[j]
-                J[n + j, k + j] = 1.0 / sigma_rep
-        return J.tocsr()
+            if d_level is not None and np.all(hs > 0):
+                # a recording's factor moves its samples exactly as the common level
+                # does (both scale its whole law by exp(h)): the level's runs serve
+                d = d_level * FD_STEP
+            else:
+                xp = x.copy()
+                xp[k:] += hs
+                d = fun(xp) - f0
+                last_runs.pop(xp.tobytes(), None)
+            rec = np.repeat(np.arange(R), np.diff(offs))      # each sample's recording
+            rows += [np.arange(n), n + np.arange(R)]
+            cols += [k + rec, k + np.arange(R)]
+            vals += [d[:n] / hs[rec], np.full(R, 1.0 / sigma_rep)]
+            if pin:
+                rows.append(np.full(R, n + R))
+                cols.append(k + np.arange(R))
+                vals.append(np.full(R, PIN / sigma_rep))
+        J = csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                       shape=(n + R + pin, k + R))
+        return J.toarray() if dense else J
 
     with np.errstate(all="ignore"):
-        sol = least_squares(fun_cached, x0, jac=jac, bounds=(lo, hi), x_scale="jac", ftol=1e-6, xtol=1e-6,
-                            gtol=1e-8, max_nfev=max_nfev, method="trf", tr_solver="lsmr")
+        sol = least_squares(fun_cached, x0, jac=jac, bounds=(lo, hi), x_scale="jac", ftol=1e-6, xtol=XTOL,
+                            gtol=1e-8, max_nfev=max_nfev, method="trf", tr_solver="exact" if dense else "lsmr",
+                            verbose=VERBOSE)
     # the solution's runs are those of its last evaluation when the search ended there
     xs = last_runs.get(sol.x.tobytes())
-    return sol, n, xs if xs is not None else simulate_all(sol.x)
+    return sol, prob, xs if xs is not None else simulate_all(sol.x)
+
+
+def warm_deltas(warm, recs) -> list:
+    """Start values of the recordings' log resistivity factors from an earlier fit: its
+    factors less their mean over each condition. The deviations between repetitions are
+    scatter that any model leaves to the nuisance; a condition's common factor is what
+    the earlier model could not explain, and a candidate may: started there, the search
+    kept most of it (Eq. 21 truth: the law came out scaled by 0.75, every factor 1.3)."""
+    d = {r.name: math.log(warm.rho_factors.get(r.name, 1.0)) for r in recs}
+    by = {}
+    for r in recs:
+        by.setdefault(r.condition(), []).append(d[r.name])
+    return [d[r.name] - float(np.mean(by[r.condition()])) for r in recs]
 
 
 def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=None, sigma_rep=SIGMA_REP,
@@ -254,7 +363,14 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
     docstring). base: the parameters the spec is applied to (default the dataset's
     nominal actuator); holdout: conditions (V, F) to hold out (default choose_holdout);
     progress: a callable(str) told of each model evaluation; warm: a FitResult whose
-    per-recording resistivity factors start this fit (a candidate on top of it)."""
+    per-recording resistivity factors start this fit (a candidate on top of it), less
+    their mean over each condition (warm_deltas). BLAS runs on one thread meanwhile
+    (one_blas_thread)."""
+    with threadpool_limits(1):
+        return _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm)
+
+
+def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm) -> FitResult:
     wall = time.perf_counter()
     base = base or dataset.params
     holdout = choose_holdout(dataset) if holdout is None else list(holdout)
@@ -267,14 +383,18 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
     sigma = float(np.median([noise_level(r) for r in recs]))
     k, R = len(spec), len(train)
     z_start = start(base, spec) if z0 is None else np.asarray(z0, float)
-    d0 = None if warm is None else [math.log(warm.rho_factors.get(r.name, 1.0)) for r in train]
-    sol, n, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0)
+    d0 = None if warm is None else warm_deltas(warm, train)
+    sol, prob, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0)
+    n = prob.n
     x = sol.x
     notes = []
     if not sol.success:
         notes.append(f"the least-squares search stopped before converging ({sol.message})")
     # covariance of the globals (noise units: the residuals are already / sigma)
     J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
+    lsq = {"J": J, "r": np.array(sol.fun), "deltas": np.array(x[k:]), "sigma_rep": sigma_rep, "decimate": decimate,
+           "pin": prob.pin}
+    J = J[:n + R]    # the zero-sum pin is a device of the search: the level's error keeps the repetitions' mean
     r_fit = sol.fun[:n]
     dof = max(n - (k + 2 * R), 1)
     s2 = max(1.0, float(np.sum(r_fit ** 2)) / dof)
@@ -291,7 +411,7 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
     # held out: the physics fixed at the fit, only each recording's nuisance (its offset
     # and resistivity factor, with the same prior) fitted
     if held:
-        h0 = None if warm is None else [math.log(warm.rho_factors.get(r.name, 1.0)) for r in held]
+        h0 = None if warm is None else warm_deltas(warm, held)
         sol_h, _, xs_h = _solve(held, fitted, [], [], runner, sigma, sigma_rep, decimate, max_nfev, progress, h0)
         factors.update({r.name: math.exp(sol_h.x[j]) for j, r in enumerate(held)})
     else:
@@ -313,4 +433,4 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
                      offsets=offsets, simulated=simulated, train_rmse=math.sqrt(sq["train"][0] / sq["train"][1]),
                      heldout_rmse=math.sqrt(sq["held"][0] / sq["held"][1]) if held else None, rss=rss, n=n,
                      k=k + 2 * R, cost=float(sol.cost), wall_time=time.perf_counter() - wall, runs=runner.runs,
-                     notes=notes, cov_z=cov[:k, :k].copy())
+                     notes=notes, cov_z=cov[:k, :k].copy(), z=np.array(x[:k]), lsq=lsq)

@@ -39,18 +39,19 @@ def to_json(D) -> dict:
     for i, e in enumerate(D.kept):
         if e.kind != "physics":
             continue
-        keys = [fp.key for fp in e.spec(D.final.params)]
         missing.append({"name": e.name, "form": e.variant or None, "description": e.description,
-                        "parameters": {k: {"value": D.final.values[k], "stderr": D.final.stderr[k]} for k in keys},
-                        "evidence": D.rounds[i][e.key]})
+                        "parameters": entry_parameters(D, e), "evidence": D.rounds[i][e.key]})
     corrected = {}
     nominal = D.dataset.params
     for k, v in D.final.values.items():
-        if k in ("rho_l", "q_rho") or any(e.kind == "nominal" and e.name == f"nominal:{k}" for e in D.kept):
-            nom = getattr(nominal, "rho_l" if k == "q_rho" else k)
+        if k in ("rho_l", "rho_ref") or any(e.kind == "nominal" and e.name == f"nominal:{k}" for e in D.kept):
+            nom = getattr(nominal, "rho_l" if k == "rho_ref" else k)
             # corrected: the data move it beyond two standard errors of the fit
-            corrected[k] = {"nominal": nom, "fitted": v, "stderr": D.final.stderr[k],
-                            "corrected": bool(abs(v - nom) > 2 * D.final.stderr[k])}
+            corrected["rho_l" if k == "rho_ref" else k] = {
+                "nominal": nom, "fitted": v, "stderr": D.final.stderr[k],
+                "corrected": bool(abs(v - nom) > 2 * D.final.stderr[k])}
+            if k == "rho_ref":
+                corrected["rho_l"]["at_field"] = D.context.E_ref
     out = {
         "mismatch": bool(D.mismatch),
         "missing_physics": missing,
@@ -67,6 +68,15 @@ def to_json(D) -> dict:
         "wall_time": D.wall_time,
     }
     return _clean(out)
+
+
+def entry_parameters(D, e) -> dict:
+    """A kept entry's parameters in the model's own keys ({key: {value, stderr}}): the
+    fitted coordinates when they are keys, else (a law) the keys they set."""
+    if e.shows:
+        return D.final.model_values(e.shows)
+    keys = [fp.key for fp in e.spec(D.final.params, D.context)]
+    return {k: {"value": D.final.values[k], "stderr": D.final.stderr[k]} for k in keys}
 
 
 def hold_speed(t, x, t0, t1, span=0.5) -> float:
@@ -228,9 +238,10 @@ def plot_terms(D, path) -> bool:
             ax.legend(fontsize=8)
             ax.set_title(f"series resistance\nR_s = {f.values['R_s']:.3g} +- {f.stderr['R_s']:.2g} ohm", fontsize=9)
         else:
-            keys = [fp.key for fp in e.spec(f.params)]
-            ax.errorbar(range(len(keys)), [f.values[k] for k in keys], yerr=[f.stderr[k] for k in keys], fmt="o")
-            ax.set_xticks(range(len(keys)), keys)
+            pars = entry_parameters(D, e)
+            ax.errorbar(range(len(pars)), [v["value"] for v in pars.values()], yerr=[v["stderr"] for v in pars.values()],
+                        fmt="o")
+            ax.set_xticks(range(len(pars)), list(pars))
             ax.set_title(e.name, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -242,7 +253,7 @@ def _band(f, quantity):
     """(lower, upper) one-SE band of quantity(params) from the fit's covariance (linearized
     in the fitted coordinates)."""
     from .model import apply
-    z = np.array([fp.to_z(f.values[fp.key]) for fp in f.spec])
+    z = np.asarray(f.z, float)
     y0 = np.asarray(quantity(f.params), float)
     J = []
     for i in range(len(z)):
@@ -319,16 +330,24 @@ def to_markdown(D, report: dict, plots: dict) -> str:
     for s in D.trends:
         L.append(f"- {s}")
     L += ["", "## Candidates", ""]
+    L += ["Each candidate is first screened (a score test: the BIC change a first fitting step predicts); the "
+          "shortlisted ones are fitted in full.", ""]
     for i, rnd in enumerate(D.rounds):
         L += [f"Round {i + 1} (against {'the baseline' if i == 0 else ' + '.join(e.name for e in D.kept[:i])}):", "",
-              "| candidate | delta BIC | held-out RMSE (um) | held-out reduction | parameters |", "|---|---|---|---|---|"]
+              "| candidate | screen: predicted delta BIC | delta BIC | held-out RMSE (um) | held-out reduction | "
+              "parameters |", "|---|---|---|---|---|---|"]
         for name, ev in rnd.items():
+            pred = f"{ev['screen']['predicted_delta_bic']:+.1f}" if "screen" in ev else "-"
             if "error" in ev:
-                L.append(f"| {name} | - | - | - | {ev['error']} |")
+                L.append(f"| {name} | {pred} | - | - | - | {ev['error']} |")
+                continue
+            if not ev.get("fitted"):
+                why = "skipped: an accepted candidate beats it" if ev.get("skipped") else "not fitted"
+                L.append(f"| {name} | {pred} | {why} | - | - | - |")
                 continue
             pars = ", ".join(f"{k} = {p['value']:.4g} +- {p['stderr']:.2g}" for k, p in ev["parameters"].items())
             red = ev["heldout_reduction"]
-            L.append(f"| {name} | {ev['delta_bic']:+.1f} | {um(ev['heldout_rmse'])} | "
+            L.append(f"| {name} | {pred} | {ev['delta_bic']:+.1f} | {um(ev['heldout_rmse'])} | "
                      f"{'-' if red is None else f'{red * 100:+.1f} %'} | {pars} |")
         L.append("")
     notes = [(r.name, n) for r in D.dataset.recordings for n in r.notes]
