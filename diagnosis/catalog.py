@@ -9,7 +9,7 @@ its voltages and reference field) - and, if it is new physics, its key in dfa_mo
 (parameters.py, and the model's equations). `shows` names the model keys the report gives
 when the fit's coordinates are not keys themselves (a resistivity law's).
 
-Optional: `starts(p)` - start values (dicts of keys) to try when the neutral start cannot
+Optional: `starts(p, ctx)` - start values (dicts of keys) to try when the neutral start cannot
 move (a time constant whose strength starts at 0, a resistance in log coordinates); the
 fit from each is run and the best kept. `variant` names one of several forms of an entry
 (field_dependent_resistivity: Eq. (21) or the monotone spline): the data choose between
@@ -35,17 +35,41 @@ CATALOG_IDS = ("field_dependent_resistivity", "polarization_branch", "stiffness"
 @dataclass(frozen=True)
 class Context:
     """What the catalog needs to know of a dataset: its largest and middle hold voltage
-    (V) and the reference field of the resistivity laws (V/m: the zipped liquid's field at
-    the middle voltage, under the nominal actuator)."""
+    (V) and the reference field of the resistivity laws (V/m): the liquid's field next to
+    the zipping front, averaged over the hold of the recording at the middle voltage, run
+    on the nominal actuator - where the recordings probe the law most. (The zipped field
+    of the uncharged actuator, the hold's first value, lies 6 % above it at the end of a
+    10 s hold: a steep law's level there differs by tens of percent, and the level and
+    slope of Eq. (21) moved together in a curved valley the search did not leave.)"""
     V_max: float
     V_ref: float
     E_ref: float
 
     @classmethod
     def of(cls, dataset) -> "Context":
-        V = sorted(abs(r.hold_voltage) for r in dataset.recordings)
-        V_ref = float(V[len(V) // 2])
-        return cls(float(V[-1]), V_ref, zipped_field(dataset.params, V_ref))
+        recs = sorted(dataset.recordings, key=lambda r: abs(r.hold_voltage))
+        mid = recs[len(recs) // 2]
+        return cls(float(abs(recs[-1].hold_voltage)), float(abs(mid.hold_voltage)), hold_field(dataset.params, mid))
+
+
+def hold_field(p: Parameters, rec) -> float:
+    """Mean |E_l| (V/m) next to the front over the hold of recording `rec` on the model p
+    (the zipped liquid's field at the hold voltage if the run fails or never zips)."""
+    import warnings
+
+    import numpy as np
+
+    from dfa_model import simulate
+    E0 = zipped_field(p, rec.hold_voltage)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            t = np.linspace(rec.reset_end, rec.duration, 60)
+            res = simulate(p, rec.protocol, load=rec.load, t_eval=t, charges=True, warn=False)
+            E = res.front_field()[res.x > 0]
+        return float(np.mean(E)) if E.size and np.all(np.isfinite(E)) and np.mean(E) > 0 else E0
+    except Exception:   # the nominal actuator cannot run this recording: the zipped field
+        return E0
 
 
 @dataclass(frozen=True)
@@ -55,7 +79,7 @@ class Entry:
     spec: Callable[[Parameters, Context], list]
     description: str
     kind: str = "physics"          # 'physics' (missing physics) or 'nominal' (a corrected value)
-    starts: Callable[[Parameters], list] | None = None
+    starts: Callable[[Parameters, Context], list] | None = None
     variant: str = ""
     shows: tuple = ()              # model keys to report (default: the spec's keys)
 
@@ -90,6 +114,12 @@ def _spline_law(p: Parameters, ctx: Context) -> Parameters:
     return p.replace(law="spline", E_lo=E_lo, E_hi=E_hi, d_rho1=0.0, d_rho2=0.0, d_rho3=0.0)
 
 
+def _slope_start(p: Parameters, ctx: Context, s_rho: float) -> dict:
+    """The linear law's keys for relative slope s_rho at the reference field, same level."""
+    q = Coordinate("slope", ctx.E_ref).put(p, s_rho)
+    return {"m_rho": q.m_rho, "q_rho": q.q_rho}
+
+
 def _no_change(p: Parameters, ctx: Context) -> Parameters:
     return p
 
@@ -103,7 +133,7 @@ PHYSICS = [
           "a generalized mass m (the stroke's acceleration)",
           # the fit is not convex in m (the zipping transient rings once m/b nears the
           # sample period): from 0 alone it stopped at m = 0.0075 against a true 0.074
-          starts=lambda p: [{}, {"m": 0.05}]),
+          starts=lambda p, ctx: [{}, {"m": 0.05}]),
     # the level (rho_l at E_ref) is the baseline's coordinate under a law; these shape it
     Entry("field_dependent_resistivity", _linear_law,
           # s_rho = m_rho E_ref / rho_l(E_ref): the law's relative slope there (-1: rho_l
@@ -111,7 +141,10 @@ PHYSICS = [
           lambda p, ctx: [FreeParameter("s_rho", False, -100.0, 0.95, scale=0.3,
                                         coord=Coordinate("slope", ctx.E_ref))],
           "the liquid's resistivity depends on its field: Eq. (21), rho_l = m_rho |E_l| + q_rho", variant="Eq. 21",
-          shows=("m_rho", "q_rho")),
+          shows=("m_rho", "q_rho"),
+          # the cost is not convex in the slope: a little slope fits worse than none, a
+          # steep one far better (truth s_rho = -4.4: the search from 0 stayed at 0)
+          starts=lambda p, ctx: [{}, _slope_start(p, ctx, -3.0)]),
     Entry("field_dependent_resistivity", _spline_law,
           lambda p, ctx: [FreeParameter(k, False, 0.0, 20.0, scale=0.3, coord=Coordinate("drop", ctx.E_ref, k))
                           for k in ("d_rho1", "d_rho2", "d_rho3")],
@@ -123,7 +156,7 @@ PHYSICS = [
           "a fast dielectric relaxation of the liquid (volume or screening charges): a second RC branch per "
           "element, strength chi_p = delta eps/eps_l, time constant tau_p",
           # from chi_p = 0 the time constant cannot move: start from a small branch, fast or slow
-          starts=lambda p: [{"chi_p": 0.03, "tau_p": 0.3}, {"chi_p": 0.03, "tau_p": 3.0}]),
+          starts=lambda p, ctx: [{"chi_p": 0.03, "tau_p": 0.3}, {"chi_p": 0.03, "tau_p": 3.0}]),
     Entry("series_resistance", _no_change,
           # down to 100 ohm: the ideal source within 0.3 um (1e4 ohm still moved the
           # zipping transient by 3 um, so the entry could not nest the model it extends)
@@ -131,7 +164,7 @@ PHYSICS = [
           "a resistance between the source and the device (safety resistors, cables): the device charges "
           "through R_s",
           # R_s = 0 has no logarithm: start from a charging time of ~0.3 ms (about the ideal source)
-          starts=lambda p: [{"R_s": 3e5}]),
+          starts=lambda p, ctx: [{"R_s": 3e5}]),
 ]
 
 NOMINAL = [

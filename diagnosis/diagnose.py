@@ -158,7 +158,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                 spec = baseline_spec(p, ctx) + [fp for k in kept for fp in k.spec(p, ctx)] + e.spec(p, ctx)
                 say(f"round {rnd + 1}: fitting {e.key}")
                 best, errors = None, []
-                for st in (e.starts(p) if e.starts else [{}]):
+                for st in (e.starts(p, ctx) if e.starts else [{}]):
                     try:
                         f = fit(dataset, spec, base=p.replace(**st) if st else p, holdout=holdout,
                                 executor=executor, warm=current)

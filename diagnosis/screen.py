@@ -63,7 +63,7 @@ def probes(entry, p, ctx) -> list:
     of it are the candidate's."""
     spec = entry.spec(p, ctx)
     out = []
-    for st in (entry.starts(p) if entry.starts else [{}]):
+    for st in (entry.starts(p, ctx) if entry.starts else [{}]):
         if st:
             out.append((p.replace(**st), True))
             continue

@@ -7,8 +7,11 @@ the repetitions' spread in every condition. Without being told the truth, the di
 must name the entry, recover its parameters within the stated tolerances, and cut the
 held-out RMSE by at least half.
 
-Size (for CI): N = 21 (truth and fit share it), 3 conditions x 3 repetitions, a 1 s reset at
-30 Hz then a 10 s hold.
+Size (for CI): N = 21 (truth and fit share it), 3 conditions x 3 repetitions. Protocol: the
+paper's (3 s reset at 30 Hz, 20 s hold) for the effects that need the hold's length to
+show beside the repetition scatter (a stiffness: the baseline trades its static offset
+for unzipping speed over a hold, the less the longer; a field law: the liquid's field
+decays over the hold), a 1 s reset and a 10 s hold for the others.
 Tolerances are what the fit reaches at this size and noise, not what a textbook promises:
 the parameter's own scatter over seeds is several of its standard errors (the residual
 switch-timing error of 1 kHz voltage samples is not in the noise model)."""
@@ -28,31 +31,26 @@ NOMINAL = preset("vshape-table1").replace(N=21, rho_l=3e12)
 TRUTH = NOMINAL.replace(rho_l=2e12)
 LOADS = [(6000.0, 3.0), (6000.0, 5.0), (6000.0, 7.0)]
 VOLTS = [(5000.0, 5.0), (6000.0, 5.0), (7000.0, 5.0)]
-RESET, RESET_HZ, HOLD = 1.0, 30.0, 10.0
+RESET_HZ = 30.0
+PAPER, SHORT = (3.0, 20.0), (1.0, 10.0)    # (reset, hold) in s
+E6 = 5.84e7      # the zipped liquid's field at 6 kV (V/m)
 
-# entry: (truth changes, conditions, {key: (true value, relative tolerance)})
+# entry: (truth changes, conditions, {key: (true value, relative tolerance)}, protocol)
 CASES = {
-    "stiffness": ({"k": 20.0}, VOLTS, {"k": (20.0, 0.15)}),
-    "inertia": ({"m": 0.05}, LOADS, {"m": (0.05, 0.05)}),
-    "polarization_branch": ({"chi_p": 0.01, "tau_p": 1.0}, LOADS, {"chi_p": (0.01, 0.1), "tau_p": (1.0, 0.2)}),
-    "series_resistance": ({"R_s": 1e6}, LOADS, {"R_s": (1e6, 0.05)}),
-    # Eq. (21) with a tenth of the paper's slope: rho_l 2e12 at the zipped field of 6 kV
-    "field_dependent_resistivity": ({"law": "linear", "q_rho": 5.3e12, "m_rho": -6e4}, VOLTS, {}),
+    "stiffness": ({"k": 20.0}, VOLTS, {"k": (20.0, 0.15)}, PAPER),
+    "inertia": ({"m": 0.05}, LOADS, {"m": (0.05, 0.05)}, SHORT),
+    "polarization_branch": ({"chi_p": 0.01, "tau_p": 1.0}, LOADS, {"chi_p": (0.01, 0.1), "tau_p": (1.0, 0.2)}, SHORT),
+    "series_resistance": ({"R_s": 1e6}, LOADS, {"R_s": (1e6, 0.05)}, SHORT),
+    # Eq. (21) with an eighth of the paper's slope, rho_l 2e12 at the zipped field of 6 kV
+    "field_dependent_resistivity": ({"law": "linear", "q_rho": 2e12 + 4e4 * E6, "m_rho": -4e4}, VOLTS, {}, PAPER),
 }
 
-# entries for which concealment and halving the held-out error are not both reached at
-# this size (measured: stiffness k = 20 is found, k = 22 +- 2, held-out halved, but its
-# baseline misses the speed at 7 kV by 1.0 um/s against a 0.9 um/s spread; the Eq. (21)
-# truth is found as the spline law, held-out 1.6 -> 1.4 um against 1.05 um noise: the
-# per-recording resistivity factors absorb most of its voltage trend)
-KNOWN_MISSES = {"stiffness": "a static offset that halves the held-out error also biases the baseline's speed",
-                "field_dependent_resistivity": "the repetition nuisance absorbs the law's voltage trend"}
 
-
-def run(tmp_path_factory, name, changes, conditions, seed=21):
+def run(tmp_path_factory, name, changes, conditions, protocol=SHORT, seed=21):
     folder = tmp_path_factory.mktemp(name)
     truth = TRUTH.replace(**changes)
-    generate_dataset(folder / "data", truth, NOMINAL, conditions, repetitions=3, reset=RESET, hold=HOLD,
+    reset, hold = protocol
+    generate_dataset(folder / "data", truth, NOMINAL, conditions, repetitions=3, reset=reset, hold=hold,
                      reset_frequency=RESET_HZ, measurement=Measurement(noise=1e-6, rho_spread=0.05), seed=seed)
     ex = local_executor(2)
     try:
@@ -65,10 +63,7 @@ def run(tmp_path_factory, name, changes, conditions, seed=21):
 def goal_misses(report) -> list:
     """The proof's two goals, checked together: concealed (the baseline's headline error
     within the repetition spread in every condition) and proved (held-out RMSE at most
-    half the baseline's). Returns what is missed, for an honest xfail: at 1 um noise a
-    stiffness or a field-dependent resistivity big enough to halve the held-out error
-    shows in the headline metric somewhere, or one small enough to hide there leaves a
-    held-out error the improved model cannot halve (README, 'Diagnosis')."""
+    half the baseline's). Returns what is missed."""
     misses = [f"not concealed at {h['voltage'] / 1e3:g} kV, {h['force']:g} N: baseline error "
               f"{h['speed_error_baseline'] * 1e6:+.2f} um/s, spread {h['speed_spread'] * 1e6:.2f} um/s"
               for h in report["headline"] if not h["concealed"]]
@@ -89,32 +84,27 @@ def check_found_and_improved(report):
 
 @pytest.mark.parametrize("entry", list(CASES))
 def test_concealed_entry_is_named_recovered_and_proved(tmp_path_factory, entry):
-    changes, conditions, expected = CASES[entry]
-    D, report, truth, out = run(tmp_path_factory, entry, changes, conditions)
+    changes, conditions, expected, protocol = CASES[entry]
+    D, report, truth, out = run(tmp_path_factory, entry, changes, conditions, protocol)
     names = [m["name"] for m in report["missing_physics"]]
     assert names == [entry], (names, report["candidates"])
     check_found_and_improved(report)
     fitted = report["missing_physics"][0]["parameters"]
     for key, (value, tol) in expected.items():
         assert fitted[key]["value"] == pytest.approx(value, rel=tol), (key, fitted[key])
-    law_miss = []
     if entry == "field_dependent_resistivity":
-        # whichever form was chosen, the fitted law follows the truth's over the fields
-        # the zipped liquid sees at 5-7 kV (the truth runs from 3.5e12 to 1.1e12 there,
-        # so the baseline's constant law is off by up to 70 %). Measured: within 5 % over
-        # 4-6e7 V/m, 17 % and 24 % off at 3e7 and 7e7 V/m; the goal is 10 %
-        E = np.linspace(3e7, 7e7, 9)
+        # whichever form was chosen, the fitted law follows the truth's over the fields the
+        # liquid next to the front sees in these recordings: the zipped field at 5-7 kV,
+        # falling by ~20 % over a 20 s hold as the interface charges (the truth runs from
+        # 2.9e12 to 1.3e12 ohm m there; the baseline's constant law is off by up to 50 %)
+        E = np.linspace(0.8 * 5 / 6 * E6, 7 / 6 * E6, 9)
         rho_fit = from_parameters(D.final.params).rho(E)
         rho_true = from_parameters(truth).rho(E)
-        dev = np.abs(rho_fit / rho_true - 1)
-        assert dev.max() < 0.3, (rho_fit, rho_true)
-        if dev.max() > 0.10:
-            law_miss = [f"law within {dev.max():.0%} of the truth over 3-7e7 V/m (goal 10 %)"]
+        mean_factor = np.exp(np.mean([np.log(f) for f in D.final.rho_factors.values()]))
+        dev = np.abs(rho_fit * mean_factor / rho_true - 1)
+        assert dev.max() < 0.10, (E, rho_fit, rho_true)
     assert (out / "fitted_terms.png").is_file()
-    misses = goal_misses(report) + law_miss
-    if misses and entry in KNOWN_MISSES:
-        pytest.xfail(f"{entry}: {'; '.join(misses)} ({KNOWN_MISSES[entry]})")
-    assert not misses, misses
+    assert not goal_misses(report), goal_misses(report)
 
 
 def test_two_concealed_effects_are_both_named(tmp_path_factory):
