@@ -52,8 +52,8 @@ def rho_band(ax, x, ys, color, highlight, marker="o", ms=3):
                 label=rho_label(rho) + (" (bold)" if bold else ""))
 
 
-def save(fig, name, tight=True):
-    path = os.path.join(OUT, name)
+def save(fig, name, tight=True, out=None):
+    path = os.path.join(out or OUT, name)
     if tight:
         fig.tight_layout()
     fig.savefig(path, dpi=110)
