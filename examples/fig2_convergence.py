@@ -59,7 +59,7 @@ a.axhline(np.mean(np.abs(err10)) * 100, color="C1", ls="--", lw=1.2,
 a.text(0.03, 0.03, "ours (both continuum schemes): exact for any N\n(the element integrals of Eq. (8) in closed form)",
        transform=a.transAxes, fontsize=7.5, color="C2")
 a.set_ylim(0.5, 3e5)
-a.set_xlabel("elements N")
+a.set_xlabel("N (discretization points)")
 a.set_ylabel("|static force error| vs exact Eq. (8), x = 0.05-3 mm (%)")
 a.set_title("(a) static force, 6 kV, over the stroke range")
 a.legend(loc="upper right", fontsize=7)
@@ -94,7 +94,7 @@ if stuck:
     a.text(12, 4, f"paper scheme: the stroke sticks at a force\njump (Filippov), < 0.1 µm/s for N = {stuck[0]}-{stuck[-1]}",
            fontsize=7.5, color="C0")
 a.set_ylim(-1, 27)
-a.set_xlabel("elements N")
+a.set_xlabel("N (discretization points)")
 a.set_ylabel("unzipping speed, peak to 20 s (µm/s)")
 a.set_title("(c) 6 kV step, 5 N, θ0 = 25°, 20 s window")
 a.legend(loc="center left", fontsize=7)

@@ -88,8 +88,8 @@ a = fig.add_subplot(outer[0, 3])
 base = p.rho_l * p.eps_r_l / p.eps_r_f           # rho_f giving tau_f = tau_l
 for i, ratio in enumerate((1, 3, 10, 100, 1000)):
     r = simulate(p.replace(rho_f=ratio * base), step, load=F, t_eval=t)
-    a.plot(r.t, r.x * 1e3, color=f"C{i}", label=f"τ_f/τ_l = {ratio}")
-a.set_title("(c) 6 kV step, 5 N, ρ_l = 2×10¹² Ω m, ρ_f varied")
+    a.plot(r.t, r.x * 1e3, color=f"C{i}", label=rf"$\tau_f/\tau_l$ = {ratio}")
+a.set_title(r"(c) 6 kV step, 5 N, $\rho_l$ = 2×10¹² Ω m, $\rho_f$ varied")
 a.legend(loc="lower right")
 a.set_ylim(0, 0.95)
 
@@ -127,9 +127,9 @@ if no_zip:
                textcoords="offset points", ha="right", fontsize=7)
 a.set_xlabel("initial angle θ0 (°)")
 a.set_ylabel("unzipping speed, peak to 20 s (µm/s)")
-a.set_title("(e) 6 kV step, 5 N, 20 s window; ρ_l band")
+a.set_title(r"(e) 6 kV step, 5 N, 20 s window; $\rho_l$ band")
 a.legend(loc="upper left", fontsize=7)
 a.set_ylim(0, 50)
 fig.suptitle("Fig. 4: V-shaped actuator (Table 1, N = %d), 6 kV applied at t = 0 to an uncharged actuator at rest; "
-             "ρ_l = 2×10¹² Ω m (Sec. 3) unless stated" % p.N, fontsize=10.5)
+             r"$\rho_l$ = 2×10¹² Ω m (Sec. 3) unless stated" % p.N, fontsize=10.5)
 save(fig, "fig4_dynamics.png", tight=False)

@@ -67,7 +67,7 @@ a.legend(loc="lower right", fontsize=7)
 a = ax[1]
 vol_ml = np.array(volumes) * 1e6
 rho_band(a, vol_ml, uz_vol, "C3", 2.5e12)
-a.set_xlabel("liquid volume Ω_f (ml)")
+a.set_xlabel(r"liquid volume $\Omega_f$ (ml)")
 a.set_ylabel("unzipping speed (µm/s)")
 a.set_title("(b) 1 N, 7 kV, reset 3 s + 20 s DC")
 a.legend(loc="upper left", fontsize=7)

@@ -51,7 +51,7 @@ if not QUICK:
     ax.axvline(p.N, color="0.4", ls="--", lw=1)
     ax.text(p.N * 1.05, 4e-3, f"default N = {p.N}", va="bottom", fontsize=7.5, color="0.3")
 ax.set_ylim(3e-3, 30)
-ax.set_xlabel("material points N")
+ax.set_xlabel("N (discretization points)")
 ax.set_ylabel(f"|unzipping speed error| vs N = {N_REF} (%)")
 ax.set_title("Peano-HASEL (Fig. 10a pouch), 7 kV, 3 s reset + 20 s DC: convergence in N")
 ax.legend(fontsize=6.8, loc="lower left")
