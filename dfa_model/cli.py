@@ -111,7 +111,7 @@ def cmd_simulate(args):
         check_writable("--plot", args.plot, PLOT_FORMATS)
     t_eval = _output_times(proto.duration, args.dt) if args.dt else None
     src = f"preset {args.preset}" if args.preset else f"params {args.params}"
-    comment = (f"{src} {' '.join(args.set or [])}; voltage {args.voltage:g} V, force {args.force:g} N, waveform "
+    comment = (f"{' '.join([src] + list(args.set or []))}; voltage {args.voltage:g} V, force {args.force:g} N, waveform "
                f"{args.waveform}, reset {args.reset or 0:g} s, duration {args.duration:g} s")
     try:
         res = simulate(p, proto, load=args.force, t_eval=t_eval, max_steps=args.max_steps)
@@ -124,7 +124,7 @@ def cmd_simulate(args):
     if args.out:
         res.to_csv(args.out, comment=comment)
     if args.plot:
-        res.plot(args.plot)
+        res.plot(args.plot, source=" ".join([src] + list(args.set or [])))
     if args.json:
         print(json.dumps(res.summary()))
     elif not args.out and not args.plot:

@@ -13,6 +13,12 @@ from .equations import (R_ANG, R_C, R_EDAMP, R_EIMPACT, R_EIN, R_EINTRA, R_EJ, R
 from .fileio import write_text_atomic
 from .trace import StrokeTrace
 
+# what the zipping_angle column is, per layout (the CSV header says it)
+ZIPPING_ANGLE = {
+    "v-shaped": "theta = 2 asin(a / (l - l_z)), the opening angle between the films at the front (Eq. 18)",
+    "peano-hasel": "theta, half the curvature angle of the bulged pouch's arcs (Appendix A, Eqs. 22-24; "
+                   "theta_0 at x = 0), not an angle at the front",
+}
 CSV_COLUMNS = ["time", "voltage", "force", "stroke", "current", "velocity", "zipped_length",
                "zipping_angle", "electrostatic_force", "capacitance", "stored_energy"]
 
@@ -146,6 +152,7 @@ class Result(StrokeMetrics):
         other outputs). Returns the text if path is None."""
         buf = io.StringIO()
         buf.write("# dfa_model simulation, SI units (s, V, N, m, A, m/s, m, rad, N, F, J)\n")
+        buf.write(f"# zipping_angle: {ZIPPING_ANGLE[self.params.layout]}\n")
         if comment:
             for line in str(comment).splitlines():
                 buf.write(f"# {line}\n")
@@ -164,10 +171,11 @@ class Result(StrokeMetrics):
     def to_json(self) -> str:
         return json.dumps(self.summary())
 
-    def plot(self, path=None, title=None):
-        """Stroke, voltage and electrostatic force against time."""
+    def plot(self, path=None, title=None, source=None):
+        """Voltage, stroke, forces and current against time (plotting.plot_result);
+        `source` names where the parameters came from in the default title."""
         from .plotting import plot_result
-        return plot_result(self, path, title)
+        return plot_result(self, path, title, source)
 
     def front_field(self):
         """|E_l| (V/m) at the zipped material point next to the front, at each output

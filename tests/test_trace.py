@@ -57,6 +57,20 @@ def test_samples_are_joined_linearly():
     assert lo[0] == 0.0 and hi[0] == 5.0
 
 
+def test_peak_of_a_plateau_is_where_it_starts():
+    """A stuck stroke creeps by round-off (1e-12 m at 0.8 mm on the paper scheme): its
+    peak is where the plateau starts, not the time of the last digit's maximum. A peak
+    more than 1e-6 of the stroke above the plateau (2 nm here) is kept."""
+    t = np.array([0.0, 0.01, 1.0, 7.0, 15.0, 15.01, 20.0])
+    x = 8.2412981e-4 + np.array([-8.2412981e-4, 0.0, 2e-13, 9e-13, 5e-13, -3e-4, -4e-4])
+    tr = StrokeTrace.from_samples(t, x)
+    assert tr.argmax() == 0.01
+    from dfa_model.metrics import unzipping_speed
+    assert unzipping_speed(tr) == pytest.approx(4e-4 / 19.99, rel=1e-6)
+    x[3] += 2e-9                         # 2 nm above the plateau: a peak (the solver resolves ~0.1 um)
+    assert StrokeTrace.from_samples(t, x).argmax() == 7.0
+
+
 def test_metrics_do_not_depend_on_the_output_sampling(vshape81):
     """The issue's case: --dt 2 reported a static stroke of 0.214 mm for 0.865 mm."""
     proto = Protocol.reset_then_hold(6000, 20.0)
