@@ -222,16 +222,18 @@ def _regular_switches(t_sw: np.ndarray, dt: float) -> np.ndarray:
     interpolated crossing errs by up to dt/2), but a regular wave's switches lie on
     t0 + k P/2, and the sampling phase walks along the wave, so a straight-line fit
     through all of them averages those errors out. Used when every switch lies within
-    0.75 dt of the line (the last one - the start of the hold - may be off it); else
-    the measured crossings stand."""
-    for n in (len(t_sw), len(t_sw) - 1):
+    0.75 dt of the line (the first one - the end of a pre-trigger stretch at 0 V - and
+    the last one - the start of the hold - may be off it); else the measured crossings
+    stand."""
+    for first, last in ((0, 0), (0, 1), (1, 0), (1, 1)):
+        n = len(t_sw) - first - last
         if n < 4:
-            break
+            continue
         k = np.arange(n)
-        b, a = np.polyfit(k, t_sw[:n], 1)
+        b, a = np.polyfit(k, t_sw[first:first + n], 1)
         fit = a + b * k
-        if np.max(np.abs(t_sw[:n] - fit)) <= 0.75 * dt:
-            return np.concatenate([fit, t_sw[n:]])
+        if np.max(np.abs(t_sw[first:first + n] - fit)) <= 0.75 * dt:
+            return np.concatenate([t_sw[:first], fit, t_sw[first + n:]])
     return t_sw
 
 

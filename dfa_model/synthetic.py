@@ -7,7 +7,11 @@
 
 Each recording is the paper's routine (Sec. 4.2): a charge reset (bipolar, 100 % duty, at
 the test amplitude, `reset_frequency`) for `reset` s, then a DC hold for `hold` s, sampled
-at 1 / dt, run on the full model with the truth parameters, then measured:
+at 1 / dt, run on the full model with the truth parameters, then measured. The recorder
+starts `pretrigger` s before the drive (0 V, the actuator at rest): what a rig's
+pre-trigger gives, and the only stretch where the sensor's zero can be read apart from
+the actuator's static stroke (without it, one sample at rest read the zero to the noise,
+2 um, and a stiffness's static offset hid in those errors). The measurement:
 - the repetition's liquid resistivity differs from the truth's by a factor
   exp(N(0, rho_spread)) at every field (scaled_resistivity);
 - the laser sensor adds white noise of `noise` m RMS, reads relative to a zero that is off
@@ -33,7 +37,7 @@ import numpy as np
 
 from .parameters import Parameters
 from .solver import simulate
-from .waveforms import Protocol
+from .waveforms import DC, Bipolar, Protocol, Stage
 
 
 TRUTH_RTOL = 1e-7   # the truth model's integrator tolerance (at most)
@@ -72,7 +76,8 @@ def recording_name(V: float, F: float, rep: int) -> str:
 
 def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = None, conditions=((6000.0, 5.0),),
                      repetitions: int = 3, reset: float = 3.0, hold: float = 20.0, reset_frequency: float = 30.0,
-                     measurement: Measurement | None = None, seed: int = 0, manifest=None) -> dict:
+                     measurement: Measurement | None = None, seed: int = 0, manifest=None,
+                     pretrigger: float = 0.1) -> dict:
     """Write a dataset folder (module docstring); returns what was drawn."""
     meas = measurement or Measurement()
     nominal = nominal or truth
@@ -85,13 +90,20 @@ def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = Non
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "actuator.toml").write_text("# nominal actuator (synthetic dataset)\n" + nominal.to_toml())
     rng = np.random.default_rng(seed)
-    t = np.round(np.arange(0.0, reset + hold + meas.dt / 2, meas.dt), 12)
+    if not (math.isfinite(pretrigger) and 0 <= pretrigger <= 10):
+        raise ValueError(f"pretrigger: got {pretrigger!r}, expected 0-10 s")
+    t = np.round(np.arange(0.0, pretrigger + reset + hold + meas.dt / 2, meas.dt), 12)
     drawn = []
     for V, F in conditions:
         for rep in range(1, repetitions + 1):
             f_drive = reset_frequency * (1.0 + float(rng.normal(0.0, meas.clock)))
-            protocol = Protocol.reset_then_hold(V, hold, reset=reset, reset_frequency=f_drive) if reset > 0 \
-                else Protocol.dc(V, hold)
+            # the trigger falls anywhere within a sample (a drive started on the sampling
+            # grid would time the first switch exactly)
+            pre = pretrigger + float(rng.uniform(0.0, meas.dt)) if pretrigger > 0 else 0.0
+            stages = [Stage(DC(0.0), pre, "pretrigger")] if pre > 0 else []
+            if reset > 0:
+                stages.append(Stage(Bipolar(V, f_drive, 1.0), reset, "reset"))
+            protocol = Protocol(stages + [Stage(DC(V), t[-1] - pre - (reset if reset > 0 else 0.0), "hold")])
             factor = float(np.exp(rng.normal(0.0, meas.rho_spread)))
             offset = float(rng.normal(0.0, meas.offset))
             p = scaled_resistivity(truth, factor)
@@ -104,11 +116,11 @@ def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = Non
             v_meas = protocol.voltage(t) + rng.normal(0.0, meas.voltage_noise, t.size)
             name = recording_name(V, F, rep)
             data = np.column_stack([t, v_meas, np.full(t.size, F), x_meas])
-            lines = [f"# synthetic recording {name}: {reset:g} s reset at {reset_frequency:g} Hz, "
-                     f"{hold:g} s hold at {V:g} V against {F:g} N", "time,voltage,force,stroke"]
+            lines = [f"# synthetic recording {name}: {pretrigger:g} s at 0 V, {reset:g} s reset at "
+                     f"{reset_frequency:g} Hz, {hold:g} s hold at {V:g} V against {F:g} N", "time,voltage,force,stroke"]
             lines += [f"{a:.6f},{b:.6g},{c:.6g},{d:.9g}" for a, b, c, d in data]
             (folder / f"{name}.csv").write_text("\n".join(lines) + "\n")
-            drawn.append({"recording": name, "voltage": V, "force": F, "repetition": rep,
+            drawn.append({"recording": name, "voltage": V, "force": F, "repetition": rep, "pretrigger": pre,
                           "rho_factor": factor, "offset": offset, "reset_frequency": f_drive})
     out = {"truth": truth.to_dict(), "nominal": nominal.to_dict(), "measurement": asdict(meas), "seed": seed,
            "recordings": drawn}

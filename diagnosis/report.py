@@ -213,7 +213,7 @@ def plot_terms(D, path) -> bool:
             ax.set_ylabel("restoring force k x (N)")
             ax.set_title(f"stiffness k = {k:.3g} +- {se:.2g} N/m", fontsize=9)
         elif e.name == "field_dependent_resistivity":
-            _plot_law(ax, f)
+            _plot_law(ax, f, D)
         elif e.name == "polarization_branch":
             chi, tau = f.values["chi_p"], f.values["tau_p"]
             t = np.linspace(0, 5 * tau, 100)
@@ -266,26 +266,34 @@ def _band(f, quantity):
     return y0 - sd, y0 + sd
 
 
-def _plot_law(ax, f):
-    """The fitted resistivity law as a curve with its one-SE band, over the fields the
-    zipped liquid sees."""
+def _plot_law(ax, f, D):
+    """The fitted resistivity law as a curve with its one-SE band, and the fields the
+    recordings probe: the liquid's next to the front over the holds, from 80 % of the
+    zipped field at the lowest hold voltage (it falls as the interface charges) to the
+    zipped field at the highest - outside it the law is the form's extrapolation."""
     from dfa_model.dielectrics import from_parameters
+
+    from .model import zipped_field
     p = f.params
-    E_hi = p.E_hi if p.law == "spline" else 1.2e8
-    E = np.geomspace(E_hi / 30, E_hi, 120)
+    V = [abs(r.hold_voltage) for r in D.dataset.recordings]
+    probed = (0.8 * zipped_field(D.dataset.params, min(V)), zipped_field(D.dataset.params, max(V)))
+    E_hi = max(p.E_hi if p.law == "spline" else 0.0, 1.5 * probed[1])
+    E = np.geomspace(min(E_hi / 30, probed[0] / 3), E_hi, 160)
     rho = lambda q: from_parameters(q).rho(E)   # noqa: E731
     lo, hi = _band(f, lambda q: np.log(rho(q)))
-    ax.plot(E / 1e6, rho(p), color="C2")
-    ax.fill_between(E / 1e6, np.exp(lo), np.exp(hi), color="C2", alpha=0.25)
+    ax.axvspan(probed[0] / 1e6, probed[1] / 1e6, color="0.9", zorder=0, label="fields the recordings probe")
+    ax.plot(E / 1e6, rho(p), color="C2", label="fitted law")
+    ax.fill_between(E / 1e6, np.exp(lo), np.exp(hi), color="C2", alpha=0.25, label="one standard error")
     if p.law == "spline":
         E_k, r_k = from_parameters(p).knots
         ax.plot(E_k / 1e6, r_k, "o", color="C2", ms=4, label="knots")
-        ax.legend(fontsize=8)
+    ax.axhline(D.dataset.params.rho_l, color="0.4", ls=":", lw=1, label="nominal rho_l (constant)")
+    ax.legend(fontsize=7, loc="lower left")
     ax.set_xscale("log")
     ax.set_yscale("log")
     from matplotlib.ticker import NullFormatter
     ax.xaxis.set_minor_formatter(NullFormatter())    # a decade's minor labels overlap
-    ax.set_xlabel("|E_l| (MV/m)")
+    ax.set_xlabel("|E_l|, liquid field (MV/m)")
     ax.set_ylabel("rho_l (ohm m)")
     ax.set_title("field-dependent resistivity: " + ("Eq. (21)" if p.law == "linear" else "monotone spline"),
                  fontsize=9)
