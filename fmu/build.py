@@ -140,7 +140,8 @@ def compile_binary(tmp: Path, name: str) -> bytes:
     if not (Path(include) / "Python.h").exists():
         raise BuildError(f"Python.h not found in {include}: install this Python's development headers")
     so = tmp / f"{name}.so"
-    cmd = [cc, "-shared", "-fPIC", "-O2", "-o", str(so), str(HERE / "c" / "fmi2_python.c"),
+    # -ffp-contract=off: the fast steps' polynomial must round as NumPy's does (no FMA)
+    cmd = [cc, "-shared", "-fPIC", "-O2", "-ffp-contract=off", "-o", str(so), str(HERE / "c" / "fmi2_python.c"),
            "-I", str(Path(fmpy.__file__).parent / "c-code"), "-I", include,
            "-L", str(lib.parent), f"-l:{lib.name}", f"-Wl,-rpath,{lib.parent}", "-ldl", "-lm"]
     r = subprocess.run(cmd, capture_output=True, text=True)

@@ -38,9 +38,10 @@ from pythonfmu.default_experiment import DefaultExperiment
 from dfa_model import limits
 from dfa_model import parameters as P
 from dfa_model import statecodec
-from dfa_model.stepper import OUTPUTS, Stepper
+from dfa_model.stepper import INPUT_RTOL, OUTPUTS, Stepper
 
 PARAMS_FILE = "dfa_params.toml"
+STEP_HEAD = 10     # header of _c_step_buf (fmi2_python.c, fast_step)
 
 OUTPUT_INFO = {
     "stroke": ("m", "stroke x (vertical travel of the load)"),
@@ -85,7 +86,10 @@ class DFAActuator(Fmi2Slave):
         path = os.path.join(here, PARAMS_FILE)
         base = P.load(path) if os.path.exists(path) else P.Parameters()
         self._c_real_buf = np.zeros(len(FAST))      # voltage, force, outputs (properties below)
-        self.land_on_communication_points = True
+        # the solver step the binary may answer communication points from (fast_step in
+        # fmi2_python.c): header, the two inputs, then a, b, c of the outputs
+        self._c_step_buf = np.zeros(STEP_HEAD + 2 + 3 * len(OUTPUTS))
+        self.land_on_communication_points = False
         self._start_time, self._stop_time = 0.0, None
         self._stepper = None
         self._stepper_key = None        # the parameters and experiment the stepper was built for
@@ -118,9 +122,10 @@ class DFAActuator(Fmi2Slave):
         self.register_variable(Boolean(
             "land_on_communication_points", causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
             initial=Fmi2Initial.exact, setter=self._param_setter("land_on_communication_points"),
-            description="true: every communication point ends a solver step (the trajectory of dfa simulate on the "
-                        "same sampled input); false: the solver steps across communication points while the inputs "
-                        "stay the same and interpolates there (same error control; much faster at small steps)"))
+            description="false (default): the solver steps across communication points while the inputs stay the "
+                        "same and interpolates there (its steps are those of dfa simulate with the same input "
+                        "switches); true: every communication point ends a solver step (the trajectory of dfa "
+                        "simulate with the input sampled at every point; 10-50x slower at 1 ms steps)"))
         vr = {v.name: v.value_reference for v in self.vars.values()}
         self._c_real_vrs = tuple(vr[name] for name in FAST)
         for key, (unit, text, start) in EXTRA.items():
@@ -187,13 +192,35 @@ class DFAActuator(Fmi2Slave):
         if st is None:
             raise RuntimeError("do_step before exit_initialization_mode")
         st.t = current_time          # the master's clock is the reference
+        self._c_step_buf[0] = 0.0    # until the step is done (a failed one leaves nothing to reuse)
         buf = self._c_real_buf
         st.step(step_size, buf[0], buf[1])
         self._publish()
         return True
 
     def _publish(self):
-        self._c_real_buf[2:] = self._stepper.out
+        st = self._stepper
+        self._c_real_buf[2:] = st.out
+        sb = self._c_step_buf
+        poly = st.interpolant()
+        if poly is None:
+            sb[0] = 0.0
+            return
+        t0, h, a, b, c, reached = poly
+        n = len(OUTPUTS)
+        sb[1:STEP_HEAD] = (t0, h, reached, 0.0, st.model.kin.x_e, st.t, 2, n, INPUT_RTOL)
+        sb[STEP_HEAD:STEP_HEAD + 2] = (st.V, st.F)
+        k = STEP_HEAD + 2
+        sb[k:k + n], sb[k + n:k + 2 * n], sb[k + 2 * n:k + 3 * n] = a, b, c
+        sb[0] = 1.0
+
+    def _sync(self):
+        """Take over the communication time and outputs of the steps the binary took in C
+        (fast_step): the stepper's own copy stops at its last Python step."""
+        st = self._stepper
+        if st is not None and self._c_step_buf[0] == 1.0 and self._c_step_buf[6] != st.t:
+            st.t = float(self._c_step_buf[6])
+            st.out = self._c_real_buf[2:].copy()
 
     # ------------------------------------------------------------------ FMU state
     @staticmethod
@@ -205,6 +232,7 @@ class DFAActuator(Fmi2Slave):
         return statecodec.decode(data)
 
     def _get_fmu_state(self):
+        self._sync()
         return {"params": self._param_values(), "inputs": (self.voltage, self.force),
                 "experiment": (self._start_time, self._stop_time),
                 "stepper": None if self._stepper is None else self._stepper.get_state()}
@@ -222,6 +250,7 @@ class DFAActuator(Fmi2Slave):
         self._stepper_key = None if stepper is None else _key(params, experiment)
         if stepper is None:
             self._c_real_buf[2:] = 0.0
+            self._c_step_buf[0] = 0.0
         else:
             self._publish()
 
