@@ -220,13 +220,25 @@ def cmd_fmu_build(args):
     if not args.preset and not args.params:
         args.preset = "vshape-table1"
     p = _params(args)
-    check_writable("--out", args.out, ("fmu",))
+    src = args.params or "preset " + args.preset
+    if args.system:
+        from fmu.ssp import build_system
+        out = args.out or "DFASystem.ssp"
+        check_writable("--out", out, ("ssp",))
+        try:
+            out = build_system(p, out)
+        except BuildError as exc:
+            raise CLIError(str(exc)) from None
+        print(f"wrote {out} (SSP 1.0: the actuator with parameters from {src}, the drive electronics and the "
+              f"load, FMI 2.0 co-simulation FMUs; run it with fmpy.ssp.simulate.simulate_ssp or OMSimulator)")
+        return
+    out = args.out or "DFAActuator.fmu"
+    check_writable("--out", out, ("fmu",))
     try:
-        out = build_fmu(p, args.out)
+        out = build_fmu(p, out)
     except BuildError as exc:
         raise CLIError(str(exc)) from None
-    print(f"wrote {out} (FMI 2.0 co-simulation; inputs voltage, force; parameters from "
-          f"{args.params or 'preset ' + args.preset})")
+    print(f"wrote {out} (FMI 2.0 co-simulation; inputs voltage, force; parameters from {src})")
 
 
 def _add_protocol_flags(ps):
@@ -289,7 +301,9 @@ def build_parser(plugins=True):
     fsub = pf.add_subparsers(dest="fmu_command", parser_class=_Parser, required=True)
     pb = fsub.add_parser("build", help="build the FMU (parameter start values from a preset or file)")
     _add_params_flags(pb, "default: vshape-table1")
-    pb.add_argument("--out", metavar="FILE.fmu", default="DFAActuator.fmu")
+    pb.add_argument("--out", metavar="FILE.fmu", help="default DFAActuator.fmu (with --system: DFASystem.ssp)")
+    pb.add_argument("--system", action="store_true",
+                    help="build the actuator + drive electronics + load co-simulation as an SSP file")
     pb.set_defaults(func=cmd_fmu_build)
     if plugins:
         _plugins(sub)

@@ -360,6 +360,31 @@ def test_cosimulation_with_drive_and_load(fmu_path, tmp_path):
     assert late < 0.98 * early and late > 0.5 * early
 
 
+def test_ssp_system_runs_in_fmpys_master(tmp_path):
+    """`dfa fmu build --system` writes an SSP (the SSD validates against the SSP 1.0
+    schema in fmpy's reader); fmpy's SSP master runs it and gives the stroke of
+    fmu.cosim.cosimulate with the same FMUs. Its row k holds the values after the step
+    from t_k (cosimulate's point k + 1); its time is summed step by step (3e-13 s off
+    after 3500 steps), and its first step sees zero inputs (nothing moves at 0 V), so the
+    strokes agree to rounding, growing to ~1e-9 m, not bit for bit."""
+    from fmpy.ssp.simulation import simulate_ssp
+    from dfa_model.cli import main
+    from fmu.cosim import cosimulate
+    ssp = tmp_path / "system.ssp"
+    assert main(["fmu", "build", "--preset", "vshape-table1", "--system", "--out", str(ssp)]) == 0
+    warnings.simplefilter("ignore", PhysicsWarning)
+    T = 3.5
+    r = simulate_ssp(str(ssp), stop_time=T, step_size=H)
+    with zipfile.ZipFile(ssp) as z:
+        z.extractall(tmp_path / "ssp")
+    res = tmp_path / "ssp" / "resources"
+    c = cosimulate(res / "DFAActuator.fmu", res / "DriveElectronics.fmu", res / "MassSpringLoad.fmu", T, H)
+    n = len(c["t"]) - 1
+    assert len(r) >= n and np.max(c["stroke"]) > 5e-4
+    for ssp_name, name in (("actuator.stroke", "stroke"), ("drive.voltage", "voltage"), ("load.force", "force")):
+        assert np.max(np.abs(r[ssp_name][:n] - c[name][1:])) <= 1e-6 * np.max(np.abs(c[name])), ssp_name
+
+
 # ---------------------------------------------------------------------- fault injection
 # Scenarios of tests/fmu_host_faults.c: one per injected fault's entry point (the test
 # slave tests/fmu_faulty.py), and the generic abuse of the C binary.
