@@ -53,17 +53,59 @@ def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.Pa
         src = Path(tmp) / "files"
         src.mkdir()
         params.save(src / "dfa_params.toml")
-        # where this Python finds dfa_model and its dependencies: a C host embeds the
-        # base interpreter, which does not know a virtual environment's site-packages
-        paths = [str(Path(P.__file__).resolve().parents[1]), sysconfig.get_path("purelib"),
-                 sysconfig.get_path("platlib")]
-        (src / "dfa_sys_path.txt").write_text("\n".join(dict.fromkeys(paths)) + "\n")
+        bundle_model(src / BUNDLED)
+        (src / "RUNTIME.txt").write_text("# what the FMU needs in the Python that runs it (pip install ...)\n"
+                                         + "\n".join(runtime_requirements()) + "\n")
+        # a C host's Python when DFA_FMU_PYTHON names none: this one (fmi2_python.c)
+        (src / "python.txt").write_text(sys.executable + "\n")
         variant = script.resolve() != SLAVE
         if variant:
             shutil.copy2(SLAVE, src / SLAVE.name)
         from .dfa_actuator import RANGES, UNITS
         return _package(script, cls, out, list(src.iterdir()), units=UNITS, serialize=True,
                         beside=[SLAVE] if variant else [], ranges=RANGES, canGetAndSetFMUstate=True)
+
+
+BUNDLED = "_dfa_model"     # the package's name inside the FMU (dfa_actuator.py imports it)
+# runtime dependencies the FMU names when one is missing (pyproject.toml's, minus the
+# ones the FMU never imports)
+FMU_RUNTIME = ("numpy", "scipy", "numba")
+
+
+def runtime_requirements() -> list[str]:
+    """The project's requirement specifiers for the FMU's runtime dependencies."""
+    import re
+    from importlib import metadata
+    try:
+        reqs = metadata.requires("dfa-toolkit") or []
+    except metadata.PackageNotFoundError:
+        reqs = []
+    found = {re.split(r"[ <>=!~;\[]", r, maxsplit=1)[0].lower(): r.split(";")[0].strip() for r in reqs}
+    return [found.get(name, name) for name in FMU_RUNTIME]
+
+
+def bundle_model(dest: Path) -> None:
+    """Copy the model package (its sources, presets and the kernels compiled ahead of
+    time) to dest, under the name BUNDLED: the FMU runs its own copy wherever it goes.
+    If this installation has no current compiled kernels, compile them for the FMU now
+    (dfa_model/aot.py; about 30 s): without them the FMU would compile with numba at
+    every instantiation in a fresh extraction folder."""
+    from dfa_model import _jit
+    pkg = Path(_jit.__file__).parent
+    dest.mkdir()
+    for f in pkg.glob("*.py"):
+        shutil.copy2(f, dest / f.name)
+    shutil.copytree(pkg / "presets", dest / "presets")
+    so = pkg / (_jit.AOT_MODULE + sysconfig.get_config_var("EXT_SUFFIX"))
+    if _jit.AOT is not None and so.exists():
+        shutil.copy2(so, dest / so.name)
+        return
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(pkg.parent), os.environ.get("PYTHONPATH", "")]))
+    r = subprocess.run([sys.executable, "-m", "dfa_model.aot", "--out", str(dest)], capture_output=True, text=True,
+                       env=env)
+    if r.returncode != 0:
+        raise BuildError("compiling the kernels for the FMU failed (python -m dfa_model.aot):\n"
+                         + (r.stdout + r.stderr).strip()[-2000:])
 
 
 # the co-simulation example's companions: slave module, slave class

@@ -1,8 +1,13 @@
 """FMI 2.0 co-simulation slave: the continuum DFA model (dfa_model) behind pythonfmu.
 
 This file is copied into the FMU's resources by `dfa fmu build`, with the parameter file
-the FMU was built from (dfa_params.toml). It imports the installed `dfa_model`: the FMU
-runs the same code as `dfa simulate`. The FMU's binary is fmu/c/fmi2_python.c.
+the FMU was built from (dfa_params.toml) and a copy of the model package itself,
+resources/_dfa_model (the same code as `dfa simulate`, with its kernels compiled ahead
+of time): the FMU runs in any Python with its runtime dependencies (RUNTIME.txt: NumPy;
+numba where the compiled kernels do not fit that Python; SciPy for the spline law),
+whether or not the project is installed there, and always runs its own copy. Run from
+the source tree (pythonfmu imports it at build time) it uses the installed dfa_model.
+The FMU's binary is fmu/c/fmi2_python.c.
 
 Inputs (held between communication points; a change is a jump at the step start):
 voltage (V), force (N, opposing zipping). Errors (bad parameters, solver failure) are
@@ -14,31 +19,53 @@ FMU states are plain data (dicts, tuples, floats, NumPy arrays), serialized with
 dfa_model.statecodec (never pickle: the bytes come from the host), and validated in full
 before anything is assigned, so a refused state changes nothing.
 """
+import importlib
+import math
 import os
 import sys
 
 _here = os.path.dirname(os.path.abspath(__file__))
+BUNDLED = "_dfa_model"        # the FMU's copy of dfa_model (fmu/build.py)
 
 
-if os.path.exists(os.path.join(_here, "dfa_sys_path.txt")):
-    # the build's site-packages (a C host embeds the base interpreter, not a venv)
-    for _p in open(os.path.join(_here, "dfa_sys_path.txt")).read().split():
-        if _p not in sys.path:
-            sys.path.append(_p)
+def _runtime_requirements():
+    try:
+        with open(os.path.join(_here, "RUNTIME.txt")) as f:
+            return " ".join(repr(line.strip()) for line in f if line.strip() and not line.startswith("#"))
+    except OSError:
+        return "numpy scipy numba"
 
-import math  # noqa: E402
 
-import numpy as np  # noqa: E402
+def _import_model():
+    """(numpy, the model package): the bundled copy beside this file, else the installed
+    dfa_model. A missing dependency is an ImportError that says what to install where
+    (the binary logs it: instantiation fails with fmi2Error)."""
+    try:
+        import numpy
+        if os.path.isdir(os.path.join(_here, BUNDLED)):
+            pkg = importlib.import_module(BUNDLED)
+        else:
+            pkg = importlib.import_module("dfa_model")
+        for sub in ("limits", "parameters", "statecodec", "stepper"):
+            importlib.import_module(f"{pkg.__name__}.{sub}")
+        return numpy, pkg
+    except ImportError as exc:
+        missing = exc.name or str(exc)
+        raise ImportError(
+            f"DFAActuator: cannot import {missing} in the Python that runs the FMU ({sys.executable}, Python "
+            f"{sys.version.split()[0]}): install the FMU's runtime dependencies there: python -m pip install "
+            f"{_runtime_requirements()} (numba only where the FMU's precompiled kernels do not fit: "
+            f"{getattr(exc, 'msg', exc)})") from None
 
-from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
-from pythonfmu.fmi2slave import Fmi2Slave
-from pythonfmu.variables import Boolean, Integer, Real, String
-from pythonfmu.default_experiment import DefaultExperiment
 
-from dfa_model import limits
-from dfa_model import parameters as P
-from dfa_model import statecodec
-from dfa_model.stepper import INPUT_RTOL, OUTPUTS, Stepper
+np, _model = _import_model()
+limits, P, statecodec = _model.limits, _model.parameters, _model.statecodec
+INPUT_RTOL, OUTPUTS, Stepper = _model.stepper.INPUT_RTOL, _model.stepper.OUTPUTS, _model.stepper.Stepper
+
+from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability  # noqa: E402
+from pythonfmu.fmi2slave import Fmi2Slave  # noqa: E402
+from pythonfmu.variables import Boolean, Integer, Real, String  # noqa: E402
+from pythonfmu.default_experiment import DefaultExperiment  # noqa: E402
 
 PARAMS_FILE = "dfa_params.toml"
 STEP_HEAD = 10     # header of _c_step_buf (fmi2_python.c, fast_step)

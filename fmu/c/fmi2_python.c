@@ -43,6 +43,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "fmi2Functions.h"
 
@@ -702,17 +703,88 @@ static char *uri_to_path(const char *uri)
     return out;
 }
 
-static void ensure_python(void)
+/* The Python environment a C host runs the slave in: the variable DFA_FMU_PYTHON (a
+ * virtual environment's folder, or a python executable), else the interpreter that
+ * built the FMU (resources/python.txt). Returns a malloc'ed path of a python executable,
+ * or NULL after logging why none can be used. A Python host never gets here: the slave
+ * runs in the host's own interpreter and environment. */
+static char *choose_python(Comp *c)
 {
-    if (Py_IsInitialized()) return;
-    /* a C host: make libpython's symbols global so that extension modules (NumPy)
-     * resolve them, then start an interpreter that lives until the process ends (no
-     * finalization: extension modules' exit handlers must not run after it) */
+    const char *env = getenv("DFA_FMU_PYTHON");
+    char *recorded = read_line(c->resources, "python.txt");
+    const char *from = env && env[0] ? "DFA_FMU_PYTHON" : "resources/python.txt (the Python that built the FMU)";
+    const char *path = env && env[0] ? env : recorded;
+    if (!path || !path[0]) {
+        free(recorded);
+        logf_(c, fmi2Error, "fmi2Instantiate: no Python environment: set DFA_FMU_PYTHON to a Python %d.%d "
+                            "environment with the FMU's runtime dependencies (resources/RUNTIME.txt)",
+              PY_MAJOR_VERSION, PY_MINOR_VERSION);
+        return NULL;
+    }
+    char exe[4096], cfg[4096];
+    struct stat sb;
+    int is_dir = stat(path, &sb) == 0 && S_ISDIR(sb.st_mode);
+    snprintf(exe, sizeof exe, is_dir ? "%s/bin/python3" : "%s", path);
+    if (stat(exe, &sb) != 0) {
+        logf_(c, fmi2Error, "fmi2Instantiate: %s names %s: no Python there; set DFA_FMU_PYTHON to a Python %d.%d "
+                            "environment (a virtual environment's folder or its python) with the FMU's runtime "
+                            "dependencies (resources/RUNTIME.txt)", from, exe, PY_MAJOR_VERSION, PY_MINOR_VERSION);
+        free(recorded);
+        return NULL;
+    }
+    /* a virtual environment states its Python's version: it must be this binary's */
+    char *slash = strrchr(exe, '/');
+    snprintf(cfg, sizeof cfg, "%.*s/../pyvenv.cfg", slash ? (int)(slash - exe) : 1, slash ? exe : ".");
+    FILE *f = fopen(cfg, "r");
+    if (f) {
+        char line[512];
+        int major = 0, minor = 0;
+        while (fgets(line, sizeof line, f))
+            if (sscanf(line, "version = %d.%d", &major, &minor) == 2 || sscanf(line, "version_info = %d.%d", &major,
+                                                                                 &minor) == 2)
+                break;
+        fclose(f);
+        if (major && (major != PY_MAJOR_VERSION || minor != PY_MINOR_VERSION)) {
+            logf_(c, fmi2Error, "fmi2Instantiate: %s names %s, a Python %d.%d environment; this FMU's binary embeds "
+                                "Python %d.%d: name a Python %d.%d environment", from, path, major, minor,
+                  PY_MAJOR_VERSION, PY_MINOR_VERSION, PY_MAJOR_VERSION, PY_MINOR_VERSION);
+            free(recorded);
+            return NULL;
+        }
+    }
+    free(recorded);
+    return strdup(exe);
+}
+
+/* A C host: start the interpreter of the chosen environment (its pyvenv.cfg makes the
+ * environment's site-packages the path, as running its python would), after making
+ * libpython's symbols global so that extension modules (NumPy) resolve them. It lives
+ * until the process ends (no finalization: extension modules' exit handlers must not
+ * run after it). Returns 0 after logging when there is no usable Python. */
+static int ensure_python(Comp *c)
+{
+    if (Py_IsInitialized()) return 1;
+    char *exe = choose_python(c);
+    if (!exe) return 0;
     Dl_info info;
     if (dladdr((void *)&Py_InitializeEx, &info) && info.dli_fname)
         dlopen(info.dli_fname, RTLD_NOW | RTLD_GLOBAL | RTLD_NOLOAD);
-    Py_InitializeEx(0);
+    PyConfig config;
+    PyConfig_InitPythonConfig(&config);
+    config.install_signal_handlers = 0;
+    config.parse_argv = 0;
+    PyStatus status = PyConfig_SetBytesString(&config, &config.program_name, exe);
+    if (!PyStatus_Exception(status)) status = Py_InitializeFromConfig(&config);
+    PyConfig_Clear(&config);
+    if (PyStatus_Exception(status)) {
+        logf_(c, fmi2Error, "fmi2Instantiate: starting Python %d.%d for %s failed: %s", PY_MAJOR_VERSION,
+              PY_MINOR_VERSION, exe, status.err_msg ? status.err_msg : "unknown error");
+        free(exe);
+        return 0;
+    }
+    free(exe);
     PyEval_SaveThread();
+    return 1;
 }
 
 /* ------------------------------------------------------------------ FMU states */
@@ -793,7 +865,12 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
         free_comp(c);
         return NULL;
     }
-    ensure_python();
+    if (!ensure_python(c)) {
+        free(module);
+        free(clsname);
+        free_comp(c);
+        return NULL;
+    }
     GIL_BEGIN
     PyObject *sys_path = PySys_GetObject("path"); /* borrowed */
     PyObject *dir = PyUnicode_FromString(c->resources);
