@@ -6,12 +6,12 @@ fixes what pythonfmu leaves out:
 - modelDescription.xml: units (UnitDefinitions and the unit of every Real), and the
   ModelStructure's InitialUnknowns (FMI 2.0 requires the outputs with initial =
   calculated there; pythonfmu writes only <Outputs>, which fmpy's validation rejects);
-- the binary: ours (fmu/c/fmi2_python.c, compiled here with the system C compiler)
-  replaces pythonfmu's library, which maps every Python exception to fmi2Fatal and
-  destroys the instance (ours keeps the FMI state machine and checks every call; see
-  the file's header), and which leaves libpython undeclared so that a C host
-  dlopening it with RTLD_NOW fails with `undefined symbol: _Py_NoneStruct`. Ours is
-  linked against this Python's libpython with its directory as run path.
+- the binary: ours (fmu/c/fmi2_loader.c and fmu/c/fmi2_python.c, compiled here with
+  the system C compiler) replaces pythonfmu's library, which maps every Python exception
+  to fmi2Fatal and destroys the instance (ours keeps the FMI state machine and checks
+  every call; see the file's header), and which leaves libpython undeclared so that a C
+  host dlopening it with RTLD_NOW fails with `undefined symbol: _Py_NoneStruct`. Ours
+  loads libpython itself (the loader) and says what is missing when it cannot.
 """
 from __future__ import annotations
 
@@ -154,7 +154,9 @@ def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize, ranges
         entries = {name: zin.read(name) for name in zin.namelist() if not name.startswith("binaries/")}
     entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"], units, serialize, ranges)
     entries["resources/slaveclass.txt"] = (cls + "\n").encode()
-    entries[f"binaries/{_platform()}/{cls}.so"] = compile_binary(tmp, cls)
+    loader, implementation = compile_binary(tmp, cls)
+    entries[f"binaries/{_platform()}/{cls}.so"] = loader
+    entries[f"binaries/{_platform()}/{cls}-python.so"] = implementation
     tmp_out = out.with_suffix(".fmu.part")
     with zipfile.ZipFile(tmp_out, "w", zipfile.ZIP_DEFLATED) as zout:
         for name, data in entries.items():
@@ -169,27 +171,35 @@ def _platform() -> str:
     return "linux64"
 
 
-def compile_binary(tmp: Path, name: str) -> bytes:
-    """Compile fmu/c/fmi2_python.c against this Python (the FMU runs on the Python that
-    built it) and return the shared library."""
+def compile_binary(tmp: Path, name: str) -> tuple[bytes, bytes]:
+    """Compile the FMU's binary against this Python: the loader (fmu/c/fmi2_loader.c,
+    the <name>.so a host loads; libc only) and the implementation (fmu/c/fmi2_python.c,
+    <name>-python.so). The implementation leaves CPython's symbols to the process: a
+    Python host has them, and for a C host the loader loads libpython first, so that a
+    missing Python is an fmi2Error with a log line instead of a dlopen failure."""
     import fmpy
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
     if not cc:
         raise BuildError("no C compiler found (cc, gcc or clang; or set CC): the FMU's binary is compiled "
-                         "from fmu/c/fmi2_python.c")
+                         "from fmu/c/fmi2_loader.c and fmu/c/fmi2_python.c")
     lib = libpython()
     include = sysconfig.get_paths()["include"]
     if not (Path(include) / "Python.h").exists():
         raise BuildError(f"Python.h not found in {include}: install this Python's development headers")
-    so = tmp / f"{name}.so"
-    # -ffp-contract=off: the fast steps' polynomial must round as NumPy's does (no FMA)
-    cmd = [cc, "-shared", "-fPIC", "-O2", "-ffp-contract=off", "-o", str(so), str(HERE / "c" / "fmi2_python.c"),
-           "-I", str(Path(fmpy.__file__).parent / "c-code"), "-I", include,
-           "-L", str(lib.parent), f"-l:{lib.name}", f"-Wl,-rpath,{lib.parent}", "-ldl", "-lm"]
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    if r.returncode != 0:
-        raise BuildError(f"compiling the FMU binary failed:\n{' '.join(cmd)}\n{r.stderr.strip()}")
-    return so.read_bytes()
+    fmi = str(Path(fmpy.__file__).parent / "c-code")
+    loader, implementation = tmp / f"{name}.so", tmp / f"{name}-python.so"
+    # -ffp-contract=off: the fast steps' polynomial must round as NumPy's does (no FMA);
+    # -Bsymbolic: the implementation's calls stay inside it, whatever the host exports
+    cmds = [[cc, "-shared", "-fPIC", "-O2", "-ffp-contract=off", "-Wl,-Bsymbolic", "-o", str(implementation),
+             str(HERE / "c" / "fmi2_python.c"), "-I", fmi, "-I", include, "-ldl", "-lm", "-lpthread"],
+            [cc, "-shared", "-fPIC", "-O2", "-o", str(loader), str(HERE / "c" / "fmi2_loader.c"), "-I", fmi,
+             f"-DDFA_PY_MAJOR={sys.version_info.major}", f"-DDFA_PY_MINOR={sys.version_info.minor}",
+             f'-DDFA_LIBPYTHON="{lib.name}"', f'-DDFA_LIBDIR="{lib.parent}"', "-ldl", "-lpthread"]]
+    for cmd in cmds:
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0:
+            raise BuildError(f"compiling the FMU binary failed:\n{' '.join(cmd)}\n{r.stderr.strip()}")
+    return loader.read_bytes(), implementation.read_bytes()
 
 
 def _fix_description(xml: bytes, units_of: dict, serialize: bool, ranges: dict | None = None) -> bytes:

@@ -1,6 +1,6 @@
 /* A minimal non-Python FMI 2.0 co-simulation host: dlopen the FMU binary with RTLD_NOW
  * (as Modelica tools and the FMU Compliance Checker do), run the life cycle through a
- * few steps and print the stroke. No libpython is preloaded: the binary must declare it.
+ * few steps and print the stroke. No libpython is preloaded: the binary must load it.
  * Also the benchmarks' C host (benchmarks/bench_fmu.py): it prints the wall time of
  * instantiate + initialize and of the steps.
  *

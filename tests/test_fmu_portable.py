@@ -150,7 +150,8 @@ def test_c_host_runs_against_the_named_env(fresh_env, fmu_in_env, tmp_path):
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 def test_missing_dependency_or_python_fails_instantiation_saying_what_to_do(fresh_env, fmu_in_env, tmp_path):
     """An environment without NumPy: fmi2Instantiate returns NULL (fmi2Error logged)
-    naming what to pip install; a path without a Python: the log says so and what to set."""
+    naming what to pip install; a path without a Python, or a Python without its shared
+    library: the log says so and what to install or set."""
     bare = tmp_path / "bare"
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(bare)], check=True, timeout=300)
     for sub in ("a", "b"):
@@ -162,3 +163,13 @@ def test_missing_dependency_or_python_fails_instantiation_saying_what_to_do(fres
     assert "pip install" in log and "'numpy>=" in log and str(bare) in log, log
     out = _c_host(tmp_path / "b", fmu_in_env, tmp_path / "nowhere")
     assert out.returncode == 4 and "DFA_FMU_PYTHON" in out.stderr and "no Python there" in out.stderr, out.stderr
+    # an environment whose base Python has no shared library (here: none at all): the
+    # loader (fmu/c/fmi2_loader.c) cannot load libpython and says what to install
+    fake = tmp_path / "fake"
+    (fake / "bin").mkdir(parents=True)
+    (fake / "bin" / "python3").write_text("#!/bin/sh\n")
+    (fake / "pyvenv.cfg").write_text(f"home = {tmp_path / 'no-python' / 'bin'}\nversion = 3.11.0\n")
+    (tmp_path / "c").mkdir()
+    out = _c_host(tmp_path / "c", fmu_in_env, fake)
+    assert out.returncode == 4 and "needs its shared library libpython" in out.stderr, out.stderr
+    assert "install CPython" in out.stderr and "DFA_FMU_PYTHON" in out.stderr, out.stderr
