@@ -56,8 +56,6 @@ def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.Pa
         bundle_model(src / BUNDLED)
         (src / "RUNTIME.txt").write_text("# what the FMU needs in the Python that runs it (pip install ...)\n"
                                          + "\n".join(runtime_requirements()) + "\n")
-        # a C host's Python when DFA_FMU_PYTHON names none: this one (fmi2_python.c)
-        (src / "python.txt").write_text(sys.executable + "\n")
         variant = script.resolve() != SLAVE
         if variant:
             shutil.copy2(SLAVE, src / SLAVE.name)
@@ -154,6 +152,8 @@ def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize, ranges
         entries = {name: zin.read(name) for name in zin.namelist() if not name.startswith("binaries/")}
     entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"], units, serialize, ranges)
     entries["resources/slaveclass.txt"] = (cls + "\n").encode()
+    # a C host's Python when DFA_FMU_PYTHON names none: this one (fmi2_loader.c, fmi2_python.c)
+    entries["resources/python.txt"] = (sys.executable + "\n").encode()
     loader, implementation = compile_binary(tmp, cls)
     entries[f"binaries/{_platform()}/{cls}.so"] = loader
     entries[f"binaries/{_platform()}/{cls}-python.so"] = implementation
