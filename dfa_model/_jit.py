@@ -59,12 +59,34 @@ def source_digest() -> str:
     return h.hexdigest()
 
 
+def _installed_extension():
+    """The extension of an installed dfa-toolkit, for a process that imports the package
+    from a source checkout (tests run from a clone after `pip install .`): used only if
+    built from the same sources (the caller checks the hash)."""
+    import importlib.util
+    import sysconfig
+    from importlib import metadata
+    name = f"dfa_model/{AOT_MODULE}{sysconfig.get_config_var('EXT_SUFFIX')}"
+    for f in metadata.distribution("dfa-toolkit").files or ():
+        if str(f) == name:
+            path = Path(f.locate())
+            if path.exists() and path.parent.resolve() != HERE.resolve():
+                spec = importlib.util.spec_from_file_location(f"{__package__}.{AOT_MODULE}", path)
+                mod = importlib.util.module_from_spec(spec)
+                spec.loader.exec_module(mod)
+                return mod
+    return None
+
+
 def _load_aot():
     if os.environ.get("DFA_JIT"):          # force numba (development, comparisons)
         return None
     try:
-        from . import _kernels_aot as mod
-        return mod if mod.source_digest() == source_digest() else None
+        try:
+            from . import _kernels_aot as mod
+        except ImportError:
+            mod = _installed_extension()
+        return mod if mod is not None and mod.source_digest() == source_digest() else None
     except Exception:                      # absent, another Python or NumPy ABI, unreadable sources
         return None
 

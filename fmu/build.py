@@ -86,24 +86,32 @@ def bundle_model(dest: Path) -> None:
     """Copy the model package (its sources, presets and the kernels compiled ahead of
     time) to dest, under the name BUNDLED: the FMU runs its own copy wherever it goes.
     If this installation has no current compiled kernels, compile them for the FMU now
-    (dfa_model/aot.py; about 30 s): without them the FMU would compile with numba at
-    every instantiation in a fresh extraction folder."""
+    (dfa_model/aot.py; about 30 s, then kept in ~/.cache/dfa-toolkit per source version):
+    without them the FMU would compile with numba at every instantiation in a fresh
+    extraction folder."""
     from dfa_model import _jit
     pkg = Path(_jit.__file__).parent
     dest.mkdir()
     for f in pkg.glob("*.py"):
         shutil.copy2(f, dest / f.name)
     shutil.copytree(pkg / "presets", dest / "presets")
-    so = pkg / (_jit.AOT_MODULE + sysconfig.get_config_var("EXT_SUFFIX"))
-    if _jit.AOT is not None and so.exists():
-        shutil.copy2(so, dest / so.name)
+    name = _jit.AOT_MODULE + sysconfig.get_config_var("EXT_SUFFIX")
+    if _jit.AOT is not None and Path(_jit.AOT.__file__).exists():
+        shutil.copy2(_jit.AOT.__file__, dest / name)
         return
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(pkg.parent), os.environ.get("PYTHONPATH", "")]))
-    r = subprocess.run([sys.executable, "-m", "dfa_model.aot", "--out", str(dest)], capture_output=True, text=True,
-                       env=env)
-    if r.returncode != 0:
-        raise BuildError("compiling the kernels for the FMU failed (python -m dfa_model.aot):\n"
-                         + (r.stdout + r.stderr).strip()[-2000:])
+    # compiled once per source version and Python, kept in the user's cache
+    cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "dfa-toolkit" / _jit.source_digest()[:16]
+    if not (cache / name).exists():
+        cache.mkdir(parents=True, exist_ok=True)
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(pkg.parent), os.environ.get("PYTHONPATH", "")]))
+        with tempfile.TemporaryDirectory(dir=cache) as part:
+            r = subprocess.run([sys.executable, "-m", "dfa_model.aot", "--out", part], capture_output=True, text=True,
+                               env=env)
+            if r.returncode != 0 or not (Path(part) / name).exists():
+                raise BuildError("compiling the kernels for the FMU failed (python -m dfa_model.aot):\n"
+                                 + (r.stdout + r.stderr).strip()[-2000:])
+            os.replace(Path(part) / name, cache / name)
+    shutil.copy2(cache / name, dest / name)
 
 
 # the co-simulation example's companions: slave module, slave class
