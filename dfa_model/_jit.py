@@ -67,7 +67,8 @@ def _installed_extension():
     import sysconfig
     from importlib import metadata
     name = f"dfa_model/{AOT_MODULE}{sysconfig.get_config_var('EXT_SUFFIX')}"
-    for f in metadata.distribution("dfa-toolkit").files or ():
+    # every dfa-toolkit on the path: the checkout's own build metadata comes first
+    for f in (f for d in metadata.distributions(name="dfa-toolkit") for f in d.files or ()):
         if str(f) == name:
             path = Path(f.locate())
             if path.exists() and path.parent.resolve() != HERE.resolve():
