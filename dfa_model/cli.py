@@ -131,7 +131,6 @@ def cmd_simulate(args):
     src = f"preset {args.preset}" if args.preset else f"params {args.params}"
     comment = (f"{src} {' '.join(args.set or [])}; voltage {args.voltage:g} V, force {args.force:g} N, waveform "
                f"{args.waveform}, reset {args.reset or 0:g} s, duration {args.duration:g} s")
-    started = time.perf_counter()
     try:
         res = simulate(p, proto, load=args.force, t_eval=t_eval, max_steps=args.max_steps)
     except SolverError as exc:
@@ -147,7 +146,8 @@ def cmd_simulate(args):
     if args.json:
         from ._jit import MODE
         # wall_time: the simulation alone; startup_time: the process until the run began
-        print(json.dumps({**res.summary(), "startup_time": started - _process_start(), "kernels": MODE}))
+        # (interpreter, imports, checks, and numba's compilation or cache load if any)
+        print(json.dumps({**res.summary(), "startup_time": res.started - _process_start(), "kernels": MODE}))
     elif not args.out and not args.plot:
         sys.stdout.write(res.to_csv())
     else:

@@ -94,11 +94,12 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
             scale, t_out, bool(energy), bool(charges), max_steps, xc, ws, ist, False, True,
             _max_rows(model.n if charges else 0))
     prepare(integrate, *args)     # numba's compilation or cache load (if not compiled ahead): not the run's time
-    wall = time.perf_counter()
+    started = time.perf_counter()
     rec, states, stats, y_end, trace = integrate(*args)
-    wall = time.perf_counter() - wall
+    wall = time.perf_counter() - started
     result = Result(model, protocol, load, rec, states if charges else None, stats, wall, y_end, energy=energy,
                     y0=y, V_before=float(V_before), trace=trace)
+    result.started = started      # time.perf_counter() when the run began (dfa simulate's startup_time)
     status = int(stats[4])
     if status != OK:
         raise SolverError(f"simulate: stopped at t = {stats[5]:.6g} s of {T:g} s because {_STATUS[status]}"
