@@ -186,6 +186,8 @@ def main(argv=None):
     ref = simulate(p.replace(N=641, rtol=1e-6), proto, load=F)
     err = res.unzipping_speed / ref.unzipping_speed - 1
     print(f"standard protocol (Table 1, {V / 1e3:g} kV, {F:g} N, {RESET:g} s reset at {FREQ:g} Hz + {HOLD:g} s DC)")
+    from dfa_model._jit import MODE
+    print(f"  kernels: {MODE} ({'compiled at install' if MODE == 'aot' else 'numba just in time'})")
     print(f"  ours  N = {p.N}, scheme {p.scheme}: median {ours * 1e3:.2f} ms over {args.repeats} runs "
           f"(min {min(times) * 1e3:.2f}, max {max(times) * 1e3:.2f}); {res.n_steps} steps, "
           f"{res.n_rejected} rejected, {res.n_rhs} rhs evaluations; peak Python memory {peak / 1e6:.2f} MB")

@@ -14,6 +14,7 @@ import math
 import os
 import re
 import sys
+import time
 import warnings
 
 from . import limits, parameters
@@ -80,6 +81,23 @@ def _protocol(args):
                           args.reset_frequency)
 
 
+def _process_start() -> float:
+    """time.perf_counter() at this process's start: from /proc (Linux, 10 ms resolution),
+    else when this module was imported (after the interpreter's own start-up)."""
+    try:
+        with open("/proc/self/stat") as f:
+            ticks = float(f.read().rsplit(")", 1)[1].split()[19])    # field 22, starttime
+        age = time.clock_gettime(time.CLOCK_BOOTTIME) - ticks / os.sysconf("SC_CLK_TCK")
+        if 0.0 <= age < 3600.0:
+            return time.perf_counter() - age
+    except (OSError, ValueError, IndexError, AttributeError):
+        pass
+    return _IMPORTED
+
+
+_IMPORTED = time.perf_counter()
+
+
 def cmd_params(args):
     if args.params and args.preset:
         raise CLIError("give either --preset or --params, not both")
@@ -126,7 +144,10 @@ def cmd_simulate(args):
     if args.plot:
         res.plot(args.plot, source=" ".join([src] + list(args.set or [])))
     if args.json:
-        print(json.dumps(res.summary()))
+        from ._jit import MODE
+        # wall_time: the simulation alone; startup_time: the process until the run began
+        # (interpreter, imports, checks, and numba's compilation or cache load if any)
+        print(json.dumps({**res.summary(), "startup_time": res.started - _process_start(), "kernels": MODE}))
     elif not args.out and not args.plot:
         sys.stdout.write(res.to_csv())
     else:
@@ -199,13 +220,25 @@ def cmd_fmu_build(args):
     if not args.preset and not args.params:
         args.preset = "vshape-table1"
     p = _params(args)
-    check_writable("--out", args.out, ("fmu",))
+    src = args.params or "preset " + args.preset
+    if args.system:
+        from fmu.ssp import build_system
+        out = args.out or "DFASystem.ssp"
+        check_writable("--out", out, ("ssp",))
+        try:
+            out = build_system(p, out)
+        except BuildError as exc:
+            raise CLIError(str(exc)) from None
+        print(f"wrote {out} (SSP 1.0: the actuator with parameters from {src}, the drive electronics and the "
+              f"load, FMI 2.0 co-simulation FMUs; run it with fmpy.ssp.simulate.simulate_ssp or OMSimulator)")
+        return
+    out = args.out or "DFAActuator.fmu"
+    check_writable("--out", out, ("fmu",))
     try:
-        out = build_fmu(p, args.out)
+        out = build_fmu(p, out)
     except BuildError as exc:
         raise CLIError(str(exc)) from None
-    print(f"wrote {out} (FMI 2.0 co-simulation; inputs voltage, force; parameters from "
-          f"{args.params or 'preset ' + args.preset})")
+    print(f"wrote {out} (FMI 2.0 co-simulation; inputs voltage, force; parameters from {src})")
 
 
 def _add_protocol_flags(ps):
@@ -231,7 +264,10 @@ def _add_params_flags(ps, preset_help=None):
     ps.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable)")
 
 
-def build_parser():
+BUILTIN = ("params", "simulate", "sweep", "fmu")
+
+
+def build_parser(plugins=True):
     ap = _Parser(prog="dfa", description="Dielectric fluid actuator model (continuum RC + 1-DOF mechanics).")
     sub = ap.add_subparsers(dest="command", parser_class=_Parser)
     pp = sub.add_parser("params", help="print a preset or a validated parameter file as TOML")
@@ -265,9 +301,12 @@ def build_parser():
     fsub = pf.add_subparsers(dest="fmu_command", parser_class=_Parser, required=True)
     pb = fsub.add_parser("build", help="build the FMU (parameter start values from a preset or file)")
     _add_params_flags(pb, "default: vshape-table1")
-    pb.add_argument("--out", metavar="FILE.fmu", default="DFAActuator.fmu")
+    pb.add_argument("--out", metavar="FILE.fmu", help="default DFAActuator.fmu (with --system: DFASystem.ssp)")
+    pb.add_argument("--system", action="store_true",
+                    help="build the actuator + drive electronics + load co-simulation as an SSP file")
     pb.set_defaults(func=cmd_fmu_build)
-    _plugins(sub)
+    if plugins:
+        _plugins(sub)
     return ap
 
 
@@ -282,7 +321,10 @@ def _plugins(sub) -> None:
 def main(argv=None):
     from .solver import SolverError
     from .waveforms import WaveformError
-    ap = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # the plugins' commands (reduce, compare, design, diagnose) import SciPy and
+    # python-control: 0.35 s of a warm `dfa simulate`, which needs none of them
+    ap = build_parser(plugins=not (argv and argv[0] in BUILTIN))
     try:
         args = ap.parse_args(argv)
         if not getattr(args, "command", None):

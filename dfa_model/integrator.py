@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from ._jit import njit
 
 from .equations import C_NB, C_NBORD, C_RS, C_SCHEME, K, MASS, NPOW, NREC, R_C, R_EIN, R_T, R_X, X_E, XSC
 from .kernels import diagnostics, factor, jacobian, solve

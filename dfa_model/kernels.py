@@ -1,7 +1,7 @@
 """One entry point per kernel for all schemes (ids: 0 continuum-p0, 1 paper, 2 continuum)."""
 from __future__ import annotations
 
-from numba import njit
+from ._jit import njit
 
 from .equations import C_SCHEME, diagnostics as diag_elem, factor as factor_blk, jacobian as jac_blk, rhs as rhs_elem
 from .equations import solve as solve_blk

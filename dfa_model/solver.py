@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 
 from . import dielectrics, limits
+from ._jit import prepare
 from .dielectrics import PhysicsWarning
 from .equations import K, NREC
 from .integrator import MAX_STEPS, NONFINITE, OK, OUTPUT_FULL, STEP_UNDERFLOW, integrate
@@ -88,15 +89,17 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
     scale = model.scales(protocol.amplitude, energy)
     h0 = min(1e-6, T / 100)
     xc = model.force_jumps()
-    wall = time.perf_counter()
     ws, ist = model.workspace(h0)
-    rec, states, stats, y_end, trace = integrate(model.cfg, model.geo, mat, model.law.law_id, model.law.params, y,
-                                                 t, V0, Vs, F0, Fs, float(V_before), rtol, scale, t_out,
-                                                 bool(energy), bool(charges), max_steps, xc, ws, ist, False,
-                                                 True, _max_rows(model.n if charges else 0))
-    wall = time.perf_counter() - wall
+    args = (model.cfg, model.geo, mat, model.law.law_id, model.law.params, y, t, V0, Vs, F0, Fs, float(V_before), rtol,
+            scale, t_out, bool(energy), bool(charges), max_steps, xc, ws, ist, False, True,
+            _max_rows(model.n if charges else 0))
+    prepare(integrate, *args)     # numba's compilation or cache load (if not compiled ahead): not the run's time
+    started = time.perf_counter()
+    rec, states, stats, y_end, trace = integrate(*args)
+    wall = time.perf_counter() - started
     result = Result(model, protocol, load, rec, states if charges else None, stats, wall, y_end, energy=energy,
                     y0=y, V_before=float(V_before), trace=trace)
+    result.started = started      # time.perf_counter() when the run began (dfa simulate's startup_time)
     status = int(stats[4])
     if status != OK:
         raise SolverError(f"simulate: stopped at t = {stats[5]:.6g} s of {T:g} s because {_STATUS[status]}"

@@ -6,12 +6,12 @@ fixes what pythonfmu leaves out:
 - modelDescription.xml: units (UnitDefinitions and the unit of every Real), and the
   ModelStructure's InitialUnknowns (FMI 2.0 requires the outputs with initial =
   calculated there; pythonfmu writes only <Outputs>, which fmpy's validation rejects);
-- the binary: ours (fmu/c/fmi2_python.c, compiled here with the system C compiler)
-  replaces pythonfmu's library, which maps every Python exception to fmi2Fatal and
-  destroys the instance (ours keeps the FMI state machine and checks every call; see
-  the file's header), and which leaves libpython undeclared so that a C host
-  dlopening it with RTLD_NOW fails with `undefined symbol: _Py_NoneStruct`. Ours is
-  linked against this Python's libpython with its directory as run path.
+- the binary: ours (fmu/c/fmi2_loader.c and fmu/c/fmi2_python.c, compiled here with
+  the system C compiler) replaces pythonfmu's library, which maps every Python exception
+  to fmi2Fatal and destroys the instance (ours keeps the FMI state machine and checks
+  every call; see the file's header), and which leaves libpython undeclared so that a C
+  host dlopening it with RTLD_NOW fails with `undefined symbol: _Py_NoneStruct`. Ours
+  loads libpython itself (the loader) and says what is missing when it cannot.
 """
 from __future__ import annotations
 
@@ -53,17 +53,65 @@ def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.Pa
         src = Path(tmp) / "files"
         src.mkdir()
         params.save(src / "dfa_params.toml")
-        # where this Python finds dfa_model and its dependencies: a C host embeds the
-        # base interpreter, which does not know a virtual environment's site-packages
-        paths = [str(Path(P.__file__).resolve().parents[1]), sysconfig.get_path("purelib"),
-                 sysconfig.get_path("platlib")]
-        (src / "dfa_sys_path.txt").write_text("\n".join(dict.fromkeys(paths)) + "\n")
+        bundle_model(src / BUNDLED)
+        (src / "RUNTIME.txt").write_text("# what the FMU needs in the Python that runs it (pip install ...)\n"
+                                         + "\n".join(runtime_requirements()) + "\n")
         variant = script.resolve() != SLAVE
         if variant:
             shutil.copy2(SLAVE, src / SLAVE.name)
         from .dfa_actuator import RANGES, UNITS
         return _package(script, cls, out, list(src.iterdir()), units=UNITS, serialize=True,
                         beside=[SLAVE] if variant else [], ranges=RANGES, canGetAndSetFMUstate=True)
+
+
+BUNDLED = "_dfa_model"     # the package's name inside the FMU (dfa_actuator.py imports it)
+# runtime dependencies the FMU names when one is missing (pyproject.toml's, minus the
+# ones the FMU never imports)
+FMU_RUNTIME = ("numpy", "scipy", "numba")
+
+
+def runtime_requirements() -> list[str]:
+    """The project's requirement specifiers for the FMU's runtime dependencies."""
+    import re
+    from importlib import metadata
+    try:
+        reqs = metadata.requires("dfa-toolkit") or []
+    except metadata.PackageNotFoundError:
+        reqs = []
+    found = {re.split(r"[ <>=!~;\[]", r, maxsplit=1)[0].lower(): r.split(";")[0].strip() for r in reqs}
+    return [found.get(name, name) for name in FMU_RUNTIME]
+
+
+def bundle_model(dest: Path) -> None:
+    """Copy the model package (its sources, presets and the kernels compiled ahead of
+    time) to dest, under the name BUNDLED: the FMU runs its own copy wherever it goes.
+    If this installation has no current compiled kernels, compile them for the FMU now
+    (dfa_model/aot.py; about 30 s, then kept in ~/.cache/dfa-toolkit per source version):
+    without them the FMU would compile with numba at every instantiation in a fresh
+    extraction folder."""
+    from dfa_model import _jit
+    pkg = Path(_jit.__file__).parent
+    dest.mkdir()
+    for f in pkg.glob("*.py"):
+        shutil.copy2(f, dest / f.name)
+    shutil.copytree(pkg / "presets", dest / "presets")
+    name = _jit.AOT_MODULE + sysconfig.get_config_var("EXT_SUFFIX")
+    if _jit.AOT is not None and Path(_jit.AOT.__file__).exists():
+        shutil.copy2(_jit.AOT.__file__, dest / name)
+        return
+    # compiled once per source version and Python, kept in the user's cache
+    cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "dfa-toolkit" / _jit.source_digest()[:16]
+    if not (cache / name).exists():
+        cache.mkdir(parents=True, exist_ok=True)
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(pkg.parent), os.environ.get("PYTHONPATH", "")]))
+        with tempfile.TemporaryDirectory(dir=cache) as part:
+            r = subprocess.run([sys.executable, "-m", "dfa_model.aot", "--out", part], capture_output=True, text=True,
+                               env=env)
+            if r.returncode != 0 or not (Path(part) / name).exists():
+                raise BuildError("compiling the kernels for the FMU failed (python -m dfa_model.aot):\n"
+                                 + (r.stdout + r.stderr).strip()[-2000:])
+            os.replace(Path(part) / name, cache / name)
+    shutil.copy2(cache / name, dest / name)
 
 
 # the co-simulation example's companions: slave module, slave class
@@ -112,7 +160,11 @@ def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize, ranges
         entries = {name: zin.read(name) for name in zin.namelist() if not name.startswith("binaries/")}
     entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"], units, serialize, ranges)
     entries["resources/slaveclass.txt"] = (cls + "\n").encode()
-    entries[f"binaries/{_platform()}/{cls}.so"] = compile_binary(tmp, cls)
+    # a C host's Python when DFA_FMU_PYTHON names none: this one (fmi2_loader.c, fmi2_python.c)
+    entries["resources/python.txt"] = (sys.executable + "\n").encode()
+    loader, implementation = compile_binary(tmp, cls)
+    entries[f"binaries/{_platform()}/{cls}.so"] = loader
+    entries[f"binaries/{_platform()}/{cls}-python.so"] = implementation
     tmp_out = out.with_suffix(".fmu.part")
     with zipfile.ZipFile(tmp_out, "w", zipfile.ZIP_DEFLATED) as zout:
         for name, data in entries.items():
@@ -127,26 +179,35 @@ def _platform() -> str:
     return "linux64"
 
 
-def compile_binary(tmp: Path, name: str) -> bytes:
-    """Compile fmu/c/fmi2_python.c against this Python (the FMU runs on the Python that
-    built it) and return the shared library."""
+def compile_binary(tmp: Path, name: str) -> tuple[bytes, bytes]:
+    """Compile the FMU's binary against this Python: the loader (fmu/c/fmi2_loader.c,
+    the <name>.so a host loads; libc only) and the implementation (fmu/c/fmi2_python.c,
+    <name>-python.so). The implementation leaves CPython's symbols to the process: a
+    Python host has them, and for a C host the loader loads libpython first, so that a
+    missing Python is an fmi2Error with a log line instead of a dlopen failure."""
     import fmpy
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
     if not cc:
         raise BuildError("no C compiler found (cc, gcc or clang; or set CC): the FMU's binary is compiled "
-                         "from fmu/c/fmi2_python.c")
+                         "from fmu/c/fmi2_loader.c and fmu/c/fmi2_python.c")
     lib = libpython()
     include = sysconfig.get_paths()["include"]
     if not (Path(include) / "Python.h").exists():
         raise BuildError(f"Python.h not found in {include}: install this Python's development headers")
-    so = tmp / f"{name}.so"
-    cmd = [cc, "-shared", "-fPIC", "-O2", "-o", str(so), str(HERE / "c" / "fmi2_python.c"),
-           "-I", str(Path(fmpy.__file__).parent / "c-code"), "-I", include,
-           "-L", str(lib.parent), f"-l:{lib.name}", f"-Wl,-rpath,{lib.parent}", "-ldl", "-lm"]
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    if r.returncode != 0:
-        raise BuildError(f"compiling the FMU binary failed:\n{' '.join(cmd)}\n{r.stderr.strip()}")
-    return so.read_bytes()
+    fmi = str(Path(fmpy.__file__).parent / "c-code")
+    loader, implementation = tmp / f"{name}.so", tmp / f"{name}-python.so"
+    # -ffp-contract=off: the fast steps' polynomial must round as NumPy's does (no FMA);
+    # -Bsymbolic: the implementation's calls stay inside it, whatever the host exports
+    cmds = [[cc, "-shared", "-fPIC", "-O2", "-ffp-contract=off", "-Wl,-Bsymbolic", "-o", str(implementation),
+             str(HERE / "c" / "fmi2_python.c"), "-I", fmi, "-I", include, "-ldl", "-lm", "-lpthread"],
+            [cc, "-shared", "-fPIC", "-O2", "-o", str(loader), str(HERE / "c" / "fmi2_loader.c"), "-I", fmi,
+             f"-DDFA_PY_MAJOR={sys.version_info.major}", f"-DDFA_PY_MINOR={sys.version_info.minor}",
+             f'-DDFA_LIBPYTHON="{lib.name}"', f'-DDFA_LIBDIR="{lib.parent}"', "-ldl", "-lpthread"]]
+    for cmd in cmds:
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0:
+            raise BuildError(f"compiling the FMU binary failed:\n{' '.join(cmd)}\n{r.stderr.strip()}")
+    return loader.read_bytes(), implementation.read_bytes()
 
 
 def _fix_description(xml: bytes, units_of: dict, serialize: bool, ranges: dict | None = None) -> bytes:

@@ -8,6 +8,14 @@ by fmpy: the wiring a user copies to put the actuator into their own system.
 
 Fixed-step Jacobi master: every communication step, all outputs are read, then all
 inputs set, then every FMU steps over [t, t + dt].
+
+The same system ships as an SSP file (fmu/ssp.py, `dfa fmu build --system`) that any SSP
+master runs; fmpy's (fmpy.ssp.simulation.simulate_ssp) gives the same stroke (tested).
+This master stays for what fmpy's cannot do: set start values other than the FMUs' own,
+String ones included (the drive's mode = "inversion", a reset_time: fmpy's master ignores
+the SSD's parameter bindings and sets Real, Integer and Boolean only), start from the
+FMUs' initial outputs (fmpy's first step sees zero inputs), and keep the communication
+times exact (k dt; fmpy sums them).
 """
 from __future__ import annotations
 

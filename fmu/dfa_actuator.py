@@ -1,8 +1,13 @@
 """FMI 2.0 co-simulation slave: the continuum DFA model (dfa_model) behind pythonfmu.
 
 This file is copied into the FMU's resources by `dfa fmu build`, with the parameter file
-the FMU was built from (dfa_params.toml). It imports the installed `dfa_model`: the FMU
-runs the same code as `dfa simulate`. The FMU's binary is fmu/c/fmi2_python.c.
+the FMU was built from (dfa_params.toml) and a copy of the model package itself,
+resources/_dfa_model (the same code as `dfa simulate`, with its kernels compiled ahead
+of time): the FMU runs in any Python with its runtime dependencies (RUNTIME.txt: NumPy;
+numba where the compiled kernels do not fit that Python; SciPy for the spline law),
+whether or not the project is installed there, and always runs its own copy. Run from
+the source tree (pythonfmu imports it at build time) it uses the installed dfa_model.
+The FMU's binary is fmu/c/fmi2_python.c.
 
 Inputs (held between communication points; a change is a jump at the step start):
 voltage (V), force (N, opposing zipping). Errors (bad parameters, solver failure) are
@@ -14,33 +19,56 @@ FMU states are plain data (dicts, tuples, floats, NumPy arrays), serialized with
 dfa_model.statecodec (never pickle: the bytes come from the host), and validated in full
 before anything is assigned, so a refused state changes nothing.
 """
+import importlib
+import math
 import os
 import sys
 
 _here = os.path.dirname(os.path.abspath(__file__))
+BUNDLED = "_dfa_model"        # the FMU's copy of dfa_model (fmu/build.py)
 
 
-if os.path.exists(os.path.join(_here, "dfa_sys_path.txt")):
-    # the build's site-packages (a C host embeds the base interpreter, not a venv)
-    for _p in open(os.path.join(_here, "dfa_sys_path.txt")).read().split():
-        if _p not in sys.path:
-            sys.path.append(_p)
+def _runtime_requirements():
+    try:
+        with open(os.path.join(_here, "RUNTIME.txt")) as f:
+            return " ".join(repr(line.strip()) for line in f if line.strip() and not line.startswith("#"))
+    except OSError:
+        return "numpy scipy numba"
 
-import math  # noqa: E402
 
-import numpy as np  # noqa: E402
+def _import_model():
+    """(numpy, the model package): the bundled copy beside this file, else the installed
+    dfa_model. A missing dependency is an ImportError that says what to install where
+    (the binary logs it: instantiation fails with fmi2Error)."""
+    try:
+        import numpy
+        if os.path.isdir(os.path.join(_here, BUNDLED)):
+            pkg = importlib.import_module(BUNDLED)
+        else:
+            pkg = importlib.import_module("dfa_model")
+        for sub in ("limits", "parameters", "statecodec", "stepper"):
+            importlib.import_module(f"{pkg.__name__}.{sub}")
+        return numpy, pkg
+    except ImportError as exc:
+        missing = exc.name or str(exc)
+        raise ImportError(
+            f"DFAActuator: cannot import {missing} in the Python that runs the FMU ({sys.executable}, Python "
+            f"{sys.version.split()[0]}): install the FMU's runtime dependencies there: python -m pip install "
+            f"{_runtime_requirements()} (numba only where the FMU's precompiled kernels do not fit: "
+            f"{getattr(exc, 'msg', exc)})") from None
 
-from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
-from pythonfmu.fmi2slave import Fmi2Slave
-from pythonfmu.variables import Boolean, Integer, Real, String
-from pythonfmu.default_experiment import DefaultExperiment
 
-from dfa_model import limits
-from dfa_model import parameters as P
-from dfa_model import statecodec
-from dfa_model.stepper import OUTPUTS, Stepper
+np, _model = _import_model()
+limits, P, statecodec = _model.limits, _model.parameters, _model.statecodec
+INPUT_RTOL, OUTPUTS, Stepper = _model.stepper.INPUT_RTOL, _model.stepper.OUTPUTS, _model.stepper.Stepper
+
+from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability  # noqa: E402
+from pythonfmu.fmi2slave import Fmi2Slave  # noqa: E402
+from pythonfmu.variables import Boolean, Integer, Real, String  # noqa: E402
+from pythonfmu.default_experiment import DefaultExperiment  # noqa: E402
 
 PARAMS_FILE = "dfa_params.toml"
+STEP_HEAD = 10     # header of _c_step_buf (fmi2_python.c, fast_step)
 
 OUTPUT_INFO = {
     "stroke": ("m", "stroke x (vertical travel of the load)"),
@@ -85,7 +113,10 @@ class DFAActuator(Fmi2Slave):
         path = os.path.join(here, PARAMS_FILE)
         base = P.load(path) if os.path.exists(path) else P.Parameters()
         self._c_real_buf = np.zeros(len(FAST))      # voltage, force, outputs (properties below)
-        self.land_on_communication_points = True
+        # the solver step the binary may answer communication points from (fast_step in
+        # fmi2_python.c): header, the two inputs, then a, b, c of the outputs
+        self._c_step_buf = np.zeros(STEP_HEAD + 2 + 3 * len(OUTPUTS))
+        self.land_on_communication_points = False
         self._start_time, self._stop_time = 0.0, None
         self._stepper = None
         self._stepper_key = None        # the parameters and experiment the stepper was built for
@@ -118,9 +149,10 @@ class DFAActuator(Fmi2Slave):
         self.register_variable(Boolean(
             "land_on_communication_points", causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
             initial=Fmi2Initial.exact, setter=self._param_setter("land_on_communication_points"),
-            description="true: every communication point ends a solver step (the trajectory of dfa simulate on the "
-                        "same sampled input); false: the solver steps across communication points while the inputs "
-                        "stay the same and interpolates there (same error control; much faster at small steps)"))
+            description="false (default): the solver steps across communication points while the inputs stay the "
+                        "same and interpolates there (its steps are those of dfa simulate with the same input "
+                        "switches); true: every communication point ends a solver step (the trajectory of dfa "
+                        "simulate with the input sampled at every point; 10-50x slower at 1 ms steps)"))
         vr = {v.name: v.value_reference for v in self.vars.values()}
         self._c_real_vrs = tuple(vr[name] for name in FAST)
         for key, (unit, text, start) in EXTRA.items():
@@ -187,13 +219,35 @@ class DFAActuator(Fmi2Slave):
         if st is None:
             raise RuntimeError("do_step before exit_initialization_mode")
         st.t = current_time          # the master's clock is the reference
+        self._c_step_buf[0] = 0.0    # until the step is done (a failed one leaves nothing to reuse)
         buf = self._c_real_buf
         st.step(step_size, buf[0], buf[1])
         self._publish()
         return True
 
     def _publish(self):
-        self._c_real_buf[2:] = self._stepper.out
+        st = self._stepper
+        self._c_real_buf[2:] = st.out
+        sb = self._c_step_buf
+        poly = st.interpolant()
+        if poly is None:
+            sb[0] = 0.0
+            return
+        t0, h, a, b, c, reached = poly
+        n = len(OUTPUTS)
+        sb[1:STEP_HEAD] = (t0, h, reached, 0.0, st.model.kin.x_e, st.t, 2, n, INPUT_RTOL)
+        sb[STEP_HEAD:STEP_HEAD + 2] = (st.V, st.F)
+        k = STEP_HEAD + 2
+        sb[k:k + n], sb[k + n:k + 2 * n], sb[k + 2 * n:k + 3 * n] = a, b, c
+        sb[0] = 1.0
+
+    def _sync(self):
+        """Take over the communication time and outputs of the steps the binary took in C
+        (fast_step): the stepper's own copy stops at its last Python step."""
+        st = self._stepper
+        if st is not None and self._c_step_buf[0] == 1.0 and self._c_step_buf[6] != st.t:
+            st.t = float(self._c_step_buf[6])
+            st.out = self._c_real_buf[2:].copy()
 
     # ------------------------------------------------------------------ FMU state
     @staticmethod
@@ -205,6 +259,7 @@ class DFAActuator(Fmi2Slave):
         return statecodec.decode(data)
 
     def _get_fmu_state(self):
+        self._sync()
         return {"params": self._param_values(), "inputs": (self.voltage, self.force),
                 "experiment": (self._start_time, self._stop_time),
                 "stepper": None if self._stepper is None else self._stepper.get_state()}
@@ -222,6 +277,7 @@ class DFAActuator(Fmi2Slave):
         self._stepper_key = None if stepper is None else _key(params, experiment)
         if stepper is None:
             self._c_real_buf[2:] = 0.0
+            self._c_step_buf[0] = 0.0
         else:
             self._publish()
 

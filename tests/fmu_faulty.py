@@ -82,14 +82,22 @@ class FaultyActuator(DFAActuator):
         _fault("exit_initialization_mode")
         return super().exit_initialization_mode()
 
+    def _publish(self):
+        # every step goes through do_step, where the faults are injected: the binary's
+        # fast steps (fmi2_python.c, fast_step) never enter Python
+        super()._publish()
+        self._c_step_buf[0] = 0.0
+
     def do_step(self, current_time, step_size):
         self._log_fault()
         mode = _fault("do_step")
-        if mode == "solver":             # a real solver failure: too few steps allowed
+        if mode == "solver":             # a real solver failure: too few steps allowed, landing on t + h
             self._stepper.max_steps = 1
+            self._stepper.exact = True
             self._c_real_buf[0] = 6000.0
         elif self._stepper is not None:
             self._stepper.max_steps = 1_000_000
+            self._stepper.exact = self.land_on_communication_points
         ok = super().do_step(current_time, step_size)
         return {"wrong_type": "yes", "none": None, "false": False}.get(mode, ok)
 

@@ -22,7 +22,7 @@ def test_fmu_cases_in_own_process(tmp_path):
     assert report.exists(), tail
     suite = ET.parse(report).getroot()
     suite = suite if suite.tag == "testsuite" else suite.find("testsuite")
-    assert int(suite.get("tests")) == 46, tail
+    assert int(suite.get("tests")) == 48, tail
     assert int(suite.get("failures")) == 0 and int(suite.get("errors")) == 0, tail
     skipped = [case.get("name") for case in suite.iter("testcase") if case.find("skipped") is not None]
     assert skipped == [], (skipped, tail)

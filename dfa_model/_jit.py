@@ -1,0 +1,196 @@
+"""Where the compiled kernels come from: compiled ahead of time, or just in time.
+
+`pip install` compiles the kernels once into the extension `dfa_model._kernels_aot`
+(dfa_model/aot.py, run by setup.py). A process that finds it, built from the current
+kernel sources, never imports numba: the kernel modules' `njit` (this module's) then
+returns a stand-in whose Python calls go to the compiled export. Importing numba and
+loading its cache took most of a warm `dfa simulate` (0.4-0.6 s of 1 s); the extension
+loads in about 5 ms.
+
+Without it (no C compiler at install, a kernel source edited in a development checkout,
+another Python version) `njit` is numba's own, and the kernels are compiled on first use
+and cached on disk, as before. A call whose arguments are not of the compiled types (an
+array of another dtype, layout or rank) also goes through numba: the compiled export
+does not check them itself. So there is one implementation: the same Python functions,
+compiled by numba either way.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).parent
+# modules whose njit functions go into the compiled code (also: what _jitcache hashes)
+KERNEL_MODULES = ("equations", "nodal", "kinematics", "integrator", "kernels", "dielectrics")
+AOT_MODULE = "_kernels_aot"
+
+# The compiled exports: "module.function" -> argument codes, result code. Codes:
+# i int64, f float64, b bool, F1/F2/F3 float64 C-contiguous array of that rank, I1 int64
+# array, W the integrator's workspace (integrator.make_workspace), R integrate's result,
+# n None, T2/T6 tuples of floats. aot.py turns them into numba signatures.
+EXPORTS = {
+    "integrator.integrate": ("I1 F1 F1 i F1 F1 F1 F1 F1 F1 F1 f f F1 F1 b b i F1 W F1 b b i", "R"),
+    "kernels.rhs": ("I1 F1 F1 i F1 f f F1 F1 F1 F1 F2 F1", "f"),
+    "kernels.diagnostics": ("I1 F1 F1 i F1 f f f F1 F1 F1 F1 F1 F1", "n"),
+    "equations.rho_of": ("i F1 f", "f"),
+    "kinematics.kin_eval": ("i F1 f F1", "n"),
+    "kinematics.zipping_angle": ("i F1 F1", "f"),
+    "kinematics.profile": ("i F1 F1 f", "T2"),
+    "kinematics.peano_state": ("f f f", "T6"),
+    "kinematics.peano_theta_of_lz": ("f f f", "f"),
+}
+# ranks of the workspace's arrays (integrator.make_workspace)
+WORKSPACE_RANKS = (3, 2, 2, 2, 3, 2, 2, 1, 1, 1, 2, 1)
+
+
+def export_name(qualname: str) -> str:
+    return qualname.replace(".", "__")
+
+
+def source_digest() -> str:
+    """Hash of everything compiled into the extension: the kernel sources, this table
+    and the builder."""
+    h = hashlib.sha256()
+    for name in (*KERNEL_MODULES, "_jit", "aot"):
+        h.update((HERE / f"{name}.py").read_bytes())
+    return h.hexdigest()
+
+
+def _installed_extension():
+    """The extension of an installed dfa-toolkit, for a process that imports the package
+    from a source checkout (tests run from a clone after `pip install .`): used only if
+    built from the same sources (the caller checks the hash)."""
+    import importlib.util
+    import sysconfig
+    from importlib import metadata
+    name = f"dfa_model/{AOT_MODULE}{sysconfig.get_config_var('EXT_SUFFIX')}"
+    # every dfa-toolkit on the path: the checkout's own build metadata comes first
+    for f in (f for d in metadata.distributions(name="dfa-toolkit") for f in d.files or ()):
+        if str(f) == name:
+            path = Path(f.locate())
+            if path.exists() and path.parent.resolve() != HERE.resolve():
+                spec = importlib.util.spec_from_file_location(f"{__package__}.{AOT_MODULE}", path)
+                mod = importlib.util.module_from_spec(spec)
+                spec.loader.exec_module(mod)
+                return mod
+    return None
+
+
+def _load_aot():
+    if os.environ.get("DFA_JIT"):          # force numba (development, comparisons)
+        return None
+    try:
+        try:
+            from . import _kernels_aot as mod
+        except ImportError:
+            mod = _installed_extension()
+        return mod if mod is not None and mod.source_digest() == source_digest() else None
+    except Exception:                      # absent, another Python or NumPy ABI, unreadable sources
+        return None
+
+
+AOT = _load_aot()
+MODE = "aot" if AOT is not None else "jit"
+
+
+# ------------------------------------------------------------------ argument checks
+def _array_check(char, ndim):
+    def ok(a):
+        return (type(a) is np.ndarray and a.dtype.char == char and a.ndim == ndim and a.flags.c_contiguous
+                and a.flags.writeable and a.flags.aligned)
+    return ok
+
+
+def _is_int(v):
+    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+
+def _is_float(v):
+    return isinstance(v, (float, int, np.floating, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+
+def _is_bool(v):
+    return isinstance(v, (bool, np.bool_))
+
+
+_WS_CHECKS = tuple(_array_check("d", r) for r in WORKSPACE_RANKS)
+
+
+def _is_workspace(w):
+    return type(w) is tuple and len(w) == len(_WS_CHECKS) and all(c(a) for c, a in zip(_WS_CHECKS, w))
+
+
+_CHECKS = {"i": _is_int, "f": _is_float, "b": _is_bool, "F1": _array_check("d", 1), "F2": _array_check("d", 2),
+           "F3": _array_check("d", 3), "I1": _array_check("l", 1), "W": _is_workspace}
+
+
+# ------------------------------------------------------------------ the stand-in
+_KERNELS: list["Kernel"] = []
+
+
+class Kernel:
+    """A kernel while the compiled extension serves it: calls with the compiled types go
+    to the export; anything else (another type, a function not exported) compiles it
+    with numba first (jit_all)."""
+
+    def __init__(self, fn, options):
+        self.py_func = fn
+        self.options = options
+        self.qualname = f"{fn.__module__.rsplit('.', 1)[-1]}.{fn.__name__}"
+        self.dispatcher = None
+        spec = EXPORTS.get(self.qualname)
+        self._export = getattr(AOT, export_name(self.qualname), None) if spec else None
+        self._checks = tuple(_CHECKS[c] for c in spec[0].split()) if spec else ()
+        self.__name__, self.__doc__ = fn.__name__, fn.__doc__
+        _KERNELS.append(self)
+
+    def __call__(self, *args):
+        if (self._export is not None and len(args) == len(self._checks)
+                and all(check(a) for check, a in zip(self._checks, args))):
+            return self._export(*args)
+        if self.dispatcher is None:
+            jit_all()
+        return self.dispatcher(*args)
+
+
+def jit_all():
+    """Replace every stand-in by numba's dispatcher, in the kernel modules' namespaces
+    too, so that kernels compiled now call their callees' dispatchers."""
+    import importlib
+    import sys
+
+    from numba import njit as numba_njit
+    for k in _KERNELS:
+        if k.dispatcher is None:
+            k.dispatcher = numba_njit(**k.options)(k.py_func)
+    pkg = __name__.rsplit(".", 1)[0]
+    for name in KERNEL_MODULES:
+        mod = sys.modules.get(f"{pkg}.{name}") or importlib.import_module(f".{name}", pkg)
+        for attr, value in list(vars(mod).items()):
+            if isinstance(value, Kernel):
+                setattr(mod, attr, value.dispatcher)
+
+
+def njit(*args, **options):
+    """numba.njit when the kernels are compiled just in time, else the stand-in."""
+    if AOT is None:
+        from numba import njit as numba_njit
+        return numba_njit(*args, **options)
+    if args and callable(args[0]):
+        return Kernel(args[0], options)
+    return lambda fn: Kernel(fn, options)
+
+
+def prepare(kernel, *args) -> None:
+    """Compile or load `kernel` for these arguments now (numba), so that a timed call
+    that follows measures the computation only. Nothing to do for compiled exports."""
+    disp = kernel.dispatcher if isinstance(kernel, Kernel) else kernel
+    if isinstance(kernel, Kernel) and kernel._export is not None and all(c(a) for c, a in zip(kernel._checks, args)):
+        return
+    if disp is None:
+        jit_all()
+        disp = kernel.dispatcher
+    disp.compile(tuple(disp.typeof_pyval(a) for a in args))
