@@ -33,8 +33,12 @@ HELDOUT_MIN = 0.10   # relative held-out RMSE reduction a kept candidate must br
 MAX_ROUNDS = 3
 SCREEN_REL = 0.2     # a candidate is fitted if its first step does this share of the round's best one's
 SCREEN_TOP = 2       # and the best this many are fitted whatever their share (if they predict a BIC fall)
-SCREEN_SKIP = 3.0    # a shortlisted candidate is skipped when this many times its predicted BIC fall is short of
-#                      an accepted one's (first steps fell short of the fit by up to 3.6x: Eq. (21), the spline)
+SCREEN_SKIP = 2.0    # a shortlisted candidate is skipped when this many times its predicted BIC fall is short of
+#                      an accepted one's this round (it is screened again on top of the one kept: a first step
+#                      fell short of its fit by 1.8x for a branch or a resistance from their starts, 3.6x for
+#                      the spline law before Eq. 21's steep start probed the same physics)
+CANDIDATE_NFEV = 25  # evaluations a candidate's fit may take (the spline law on a series resistance took 2160
+#                      runs of 10 recordings in 40: 15 minutes of a 27-minute diagnosis, then was not kept)
 SCREEN_HELDOUT = 0.05  # predicted relative held-out RMSE fall a candidate needs to be fitted (half HELDOUT_MIN)
 
 
@@ -161,7 +165,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                 for st in (e.starts(p, ctx) if e.starts else [{}]):
                     try:
                         f = fit(dataset, spec, base=p.replace(**st) if st else p, holdout=holdout,
-                                executor=executor, warm=current)
+                                executor=executor, warm=current, max_nfev=CANDIDATE_NFEV)
                     except Exception as exc:   # a candidate the model cannot run: evidence says why
                         errors.append(f"{type(exc).__name__}: {exc}")
                         continue

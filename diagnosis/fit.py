@@ -224,14 +224,17 @@ class Problem:
         self.offs = np.concatenate([[0], np.cumsum([len(i) for i in self.idx])])
         self.n, self.R, self.pin = int(self.offs[-1]), len(recs), int(pin)
 
+    def jobs(self, p: Parameters, deltas, rtol=FIT_RTOL) -> list:
+        """The runs of `runs` as jobs for a Runner (to batch several in one call)."""
+        if p.rtol > rtol:
+            p = p.replace(rtol=rtol)
+        return [(scaled_resistivity(p, math.exp(d)), r.protocol, r.load, r.t) for d, r in zip(deltas, self.recs)]
+
     def runs(self, p: Parameters, deltas, rtol=FIT_RTOL) -> list:
         """Each recording on the model p with its resistivity factor exp(delta): strokes at
         every sample, or a message for a run that failed. The integrator's tolerance is at
         most rtol."""
-        if p.rtol > rtol:
-            p = p.replace(rtol=rtol)
-        return self.runner([(scaled_resistivity(p, math.exp(d)), r.protocol, r.load, r.t)
-                            for d, r in zip(deltas, self.recs)])
+        return self.runner(self.jobs(p, deltas, rtol))
 
     def residuals(self, xs, deltas) -> np.ndarray:
         n, R = self.n, self.R

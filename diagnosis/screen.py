@@ -26,11 +26,11 @@ residuals that almost any parameter chips at (a few tens on the BIC scale); the 
 prediction tells those from physics before a full fit is spent on them.
 
 For a model linear in its parameters these are exactly what a full fit reaches; for ours
-they are its first step. The runs of the screen, and the current model's residuals it
-compares them with, are at the tolerance SCREEN_RTOL: a probe's difference from the
-current runs also holds the difference of their integration errors, which correlates with
-the current residuals (they hold the current runs' own error); at the fits' 1e-5 that
-alone gave LM ~ 30 per probe on the true model.
+they are its first step. The current model's residuals are recomputed with the
+probes' runs (same tolerance, SCREEN_RTOL): a probe's difference from them holds the
+difference of two runs' integration errors, which is smooth in the parameters at 1e-5
+(1e-6 gave the same LM to a few units on the true model and on a model one effect short,
+at twice the runs' cost).
 
 diagnose.shortlist fits in full the candidates whose predicted BIC falls and whose
 predicted held-out error falls by SCREEN_HELDOUT, with an LM of at least SCREEN_REL of
@@ -51,7 +51,7 @@ from .model import apply, start
 
 PROBE_LINEAR = 0.1   # probe step of a linear coordinate, in its scale (FreeParameter.scale)
 PROBE_LOG = 0.05     # of a log coordinate (5 %)
-SCREEN_RTOL = 1e-6
+SCREEN_RTOL = 1e-5
 
 
 def probes(entry, p, ctx) -> list:
@@ -92,36 +92,51 @@ class Screen:
         self.current, self.lsq, self.runner = current, lsq, runner
         self.prob = Problem([recs[nm] for nm in current.train], runner, current.sigma, lsq["sigma_rep"],
                             lsq["decimate"], lsq["pin"])
-        self.r0 = self._residuals(self.prob, current.params, lsq["deltas"])
+        self.held = None
         # held out: residuals, and their derivatives in the current globals (FD_STEP in z)
         # and in each recording's factor (read off the level's, see fit._solve)
-        self.held = None
-        if current.heldout and self.r0 is not None:
+        hp = hd = None
+        steps = []
+        if current.heldout:
             held = [recs[nm] for nm in current.heldout]
             hp = Problem(held, runner, current.sigma, lsq["sigma_rep"], lsq["decimate"], False)
             hd = np.log([current.rho_factors[r.name] for r in held])
-            rh = self._residuals(hp, current.params, hd)
-            G = []
             z = np.asarray(current.z, float)
             for i in range(len(current.spec)):
                 zp = z.copy()
                 zp[i] += FD_STEP
-                r = self._residuals(hp, apply(current.base, current.spec, zp), hd)
-                G.append(np.zeros_like(rh) if r is None or rh is None else (r - rh) / FD_STEP)
-            if rh is not None:
-                G = np.array(G).T.reshape(len(rh), len(current.spec))
-                Jh = np.zeros((len(rh), len(held)))
-                level = G[:, 0] if current.spec and current.spec[0].is_level else None
-                for j in range(len(held)):
-                    sl = slice(hp.offs[j], hp.offs[j + 1])
-                    if level is not None:
-                        Jh[sl, j] = level[sl]
-                    Jh[hp.n + j, j] = 1.0 / lsq["sigma_rep"]
-                self.held = {"prob": hp, "deltas": hd, "r": rh, "G": G, "J": Jh}
+                steps.append((hp, apply(current.base, current.spec, zp), hd))
+        # every run of the set-up in one batch (the workers' load evens out over it)
+        res = self._many([(self.prob, current.params, lsq["deltas"])] + ([(hp, current.params, hd)] if hp else [])
+                         + steps)
+        self.r0 = res[0]
+        if hp is not None and self.r0 is not None and res[1] is not None:
+            rh = res[1]
+            G = np.array([np.zeros_like(rh) if r is None else (r - rh) / FD_STEP for r in res[2:]]).T
+            G = G.reshape(len(rh), len(current.spec))
+            Jh = np.zeros((len(rh), len(hp.recs)))
+            level = G[:, 0] if current.spec and current.spec[0].is_level else None
+            for j in range(len(hp.recs)):
+                sl = slice(hp.offs[j], hp.offs[j + 1])
+                if level is not None:
+                    Jh[sl, j] = level[sl]
+                Jh[hp.n + j, j] = 1.0 / lsq["sigma_rep"]
+            self.held = {"prob": hp, "deltas": hd, "r": rh, "G": G, "J": Jh}
 
-    def _residuals(self, prob, p, deltas):
-        xs = prob.runs(p, deltas, SCREEN_RTOL)
-        return None if any(isinstance(x, str) for x in xs) else prob.residuals(xs, deltas)
+    def _many(self, requests) -> list:
+        """Residuals of each (Problem, Parameters, deltas) request (None where a run
+        failed), every run in one batch."""
+        jobs, spans = [], []
+        for prob, p, deltas in requests:
+            js = prob.jobs(p, deltas, SCREEN_RTOL)
+            spans.append((len(jobs), len(jobs) + len(js)))
+            jobs += js
+        xs = self.runner(jobs)
+        out = []
+        for (prob, p, deltas), (a, b) in zip(requests, spans):
+            part = xs[a:b]
+            out.append(None if any(isinstance(x, str) for x in part) else prob.residuals(part, deltas))
+        return out
 
     @property
     def runs(self) -> int:
@@ -134,14 +149,19 @@ class Screen:
         model runs, 'failed': probes that did not run}."""
         before = self.runs
         D, Dh, lo, failed = [], [], [], 0
-        for q, one_sided in params_list:
-            r = None if self.r0 is None else self._residuals(self.prob, q, self.lsq["deltas"])
-            rh = None
-            if r is not None and self.held is not None:
-                rh = self._residuals(self.held["prob"], q, self.held["deltas"])
-                if rh is None:
-                    r = None
-            if r is None:
+        if self.r0 is None:
+            failed = len(params_list)
+            params_list = []
+        requests = []
+        for q, _ in params_list:
+            requests.append((self.prob, q, self.lsq["deltas"]))
+            if self.held is not None:
+                requests.append((self.held["prob"], q, self.held["deltas"]))
+        res = self._many(requests) if requests else []
+        per = 2 if self.held is not None else 1
+        for i, (q, one_sided) in enumerate(params_list):
+            r, rh = res[per * i], (res[per * i + 1] if per == 2 else None)
+            if r is None or (per == 2 and rh is None):
                 failed += 1
                 continue
             D.append(r - self.r0)
