@@ -41,8 +41,10 @@ OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE, OUTPUT_FULL = 0, 1, 2, 3, 4
 # carried controller state `ist` (see make_workspace): Jacobian valid, step of the stored
 # factorization, Newton contraction estimate, next step size, stuck index, f0 valid, the
 # load at the end of the last call (its voltage is the caller's V_prev), and the stop the
-# stroke rests on (-1: x = 0, +1: x = x_e, 0: free) with the net zipping force there
-I_JOK, I_HFACT, I_ETA, I_HN, I_STUCK, I_F0OK, I_F, I_STOP, I_GHOLD = 0, 1, 2, 3, 4, 5, 6, 7, 8
+# stroke rests on (-1: x = 0, +1: x = x_e, 0: free) with the net zipping force there, the
+# step to start the next voltage jump with (-1: none yet) and whether the step after the
+# last jump is still to come
+I_JOK, I_HFACT, I_ETA, I_HN, I_STUCK, I_F0OK, I_F, I_STOP, I_GHOLD, I_HJUMP, I_AFTERJ = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10
 # impact energy slot of the energy accumulators (equations.NPOW)
 E_IMPACT = 6
 # a stop event (impact, release) is located by at most this many retried steps
@@ -58,7 +60,7 @@ def make_workspace(n, ne, nb, h0):
     ws = (np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, nb)), np.zeros((3, 4)),
           np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3 if nb == 1 else 9)), np.zeros(3 * ne + 1),
           np.zeros(ne), np.zeros(ne), np.zeros((3, 3)), np.zeros(n))
-    ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0, 0.0, 0.0])
+    ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0])
     return ws, ist
 
 
@@ -315,8 +317,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     # R_s C charging of a fraction of a millisecond) that the previous segment's last,
     # long step overshot: shrinking to it took 3 rejected steps at every switch of a
     # 30 Hz reset at rtol 1e-5, ~8 with a series resistance
-    h_jump = -1.0
-    after_jump = False
+    h_jump = ist[I_HJUMP]
+    after_jump = ist[I_AFTERJ] > 0.0
     t_end = seg_t[nseg]
     hmin = 1e-14 * max(1.0, abs(t_end))
     for sidx in range(nseg):
@@ -654,6 +656,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     ist[I_STUCK] = stuck
     ist[I_STOP] = stop
     ist[I_GHOLD] = g_hold
+    ist[I_HJUMP] = h_jump
+    ist[I_AFTERJ] = 1.0 if after_jump else 0.0
     stats = np.array([nsteps, nrej, nfev, njac, status, t], dtype=np.float64)
     return (rec[:nrec].copy(), states[:nrec].copy() if store_states else states[:0].copy(), stats, y,
             trace[:ntr].copy())
