@@ -7,8 +7,10 @@ Unknowns:
   device differ by a few percent: dfa_model.synthetic.scaled_resistivity), with the prior
   delta_i ~ N(0, sigma_rep) - so repetition scatter is never taken for missing physics;
 - per recording, the sensor's zero offset: read where the model's actuator rests on its
-  stop (the first sample, a complete unzip), with a prior (sensor_offset) - not the mean
-  residual, which would swallow a static-stroke mismatch.
+  stop (a pre-trigger stretch at 0 V, the first sample, a complete unzip), with a prior
+  (sensor_offset) - not the mean residual, which would swallow a static-stroke mismatch;
+- per recording, its timing between the drive and the sensor (align): a fraction of a
+  millisecond, which the zipping transient right after the first switch shows.
 
 Cost: sum over training samples of (residual / sigma)^2 + sum delta_i^2 / sigma_rep^2, sigma
 the sensor noise estimated from the data (noise_level). Every `decimate`-th sample enters
@@ -50,6 +52,7 @@ SIGMA_REP = 0.05     # prior SD of log(rho_l) between repetitions
 DELTA_BOUND = 0.5    # |delta_i| at most (a factor 1.65)
 DECIMATE = 5
 OFFSET_PRIOR = 20e-6 # prior SD of a sensor's zero offset (m)
+TIME_PRIOR = 0.2e-3  # prior SD of a recording's timing between the drive and the sensor (s)
 # the search's step tolerance (scipy's xtol: relative to the norm of the fitted
 # coordinates, which ln rho_l ~ 28 dominates: 1e-5 stops at steps of ~3e-4 in z, a
 # hundredth of a typical standard error; 1e-6 spent 2-3 more runs of every recording
@@ -101,16 +104,36 @@ def sensor_offset(stroke, x_model, sigma, prior=OFFSET_PRIOR) -> float:
 
 
 def _run(job):
-    """One recording on the full model (module-level: runs in worker processes)."""
+    """One recording on the full model (module-level: runs in worker processes): its
+    stroke and stroke rate at the samples (rows), from the solver's dense record."""
     params, protocol, load, t = job
     from dfa_model import simulate
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             res = simulate(params, protocol, load=load, warn=False)
-        return res.trace(t)
+        tr = res.trace
+        h = 2e-5
+        return np.vstack([tr(t), (tr(t + h) - tr(t - h)) / (2 * h)])
     except Exception as exc:   # a parameter set the model cannot run: the caller rejects the step
         return f"{type(exc).__name__}: {exc}"
+
+
+def align(stroke, run, sigma) -> tuple:
+    """The model's stroke as the sensor saw it: (model at the samples with the sensor's
+    zero added, that zero (sensor_offset), the recording's time shift tau (s)).
+
+    The drive's switches are read off a 1 kHz voltage record: the first one, from rest,
+    to a few hundredths of a millisecond (a regular reset's grid, recordings.py), and the
+    zipping right after it moves at ~1 m/s, so that error alone misplaced those samples
+    by up to 90 um. Each recording's timing is a nuisance like its zero: the model shifted
+    by tau, linearized (x(t - tau) = x - tau dx/dt: tau is a fraction of the transient's
+    milliseconds), with the prior N(0, TIME_PRIOR), profiled in closed form."""
+    x, xd = run[0], run[1]
+    off = sensor_offset(stroke, x, sigma)
+    e0 = stroke - x - off
+    tau = -float(e0 @ xd) / (float(xd @ xd) + (sigma / TIME_PRIOR) ** 2)
+    return x - tau * xd + off, off, tau
 
 
 class Runner:
@@ -152,6 +175,7 @@ class FitResult:
     heldout: list
     rho_factors: dict                 # recording -> exp(delta) (held out: its nuisance fit)
     offsets: dict                     # recording -> sensor offset (m)
+    time_shifts: dict                 # recording -> its timing between drive and sensor (s, align)
     simulated: dict                   # recording -> model stroke at every sample (offset added)
     train_rmse: float
     heldout_rmse: float | None
@@ -244,7 +268,7 @@ class Problem:
             if isinstance(xm, str):
                 out[sl] = FAILED
                 continue
-            out[sl] = (r.stroke[self.idx[j]] - xm[self.idx[j]] - sensor_offset(r.stroke, xm, self.sigma)) / self.sigma
+            out[sl] = (r.stroke[self.idx[j]] - align(r.stroke, xm, self.sigma)[0][self.idx[j]]) / self.sigma
         out[n:n + R] = np.asarray(deltas) / self.sigma_rep
         if self.pin:
             out[n + R] = PIN * np.sum(deltas) / self.sigma_rep
@@ -419,21 +443,20 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
         factors.update({r.name: math.exp(sol_h.x[j]) for j, r in enumerate(held)})
     else:
         xs_h = []
-    simulated, offsets = {}, {}
+    simulated, offsets, shifts = {}, {}, {}
     sq = {"train": [0.0, 0], "held": [0.0, 0]}
     for r, xm, part in [(r, xm, "train") for r, xm in zip(train, xs)] + [(r, xm, "held") for r, xm in zip(held, xs_h)]:
         if isinstance(xm, str):
             raise FitError(f"{r.name}: the fitted model does not run ({xm})")
-        off = sensor_offset(r.stroke, xm, sigma)
-        offsets[r.name] = off
-        simulated[r.name] = xm + off
+        simulated[r.name], offsets[r.name], shifts[r.name] = align(r.stroke, xm, sigma)
         e = r.stroke - simulated[r.name]
         sq[part][0] += float(e @ e)
         sq[part][1] += e.size
     rss = float(np.sum(r_fit ** 2)) * sigma ** 2
     return FitResult(spec=list(spec), base=base, params=fitted, values=values, stderr=stderr, sigma=sigma,
                      train=[r.name for r in train], heldout=[r.name for r in held], rho_factors=factors,
-                     offsets=offsets, simulated=simulated, train_rmse=math.sqrt(sq["train"][0] / sq["train"][1]),
+                     offsets=offsets, time_shifts=shifts, simulated=simulated,
+                     train_rmse=math.sqrt(sq["train"][0] / sq["train"][1]),
                      heldout_rmse=math.sqrt(sq["held"][0] / sq["held"][1]) if held else None, rss=rss, n=n,
                      k=k + 2 * R, cost=float(sol.cost), wall_time=time.perf_counter() - wall, runs=runner.runs,
                      notes=notes, cov_z=cov[:k, :k].copy(), z=np.array(x[:k]), lsq=lsq)
