@@ -168,7 +168,7 @@ def plot_residuals(D, path):
         held = " (held out)" if recs[0].name in D.baseline.heldout else ""
         ax.set_title(f"{c[0] / 1e3:g} kV, {c[1]:g} N{held}", fontsize=9, loc="left")
         ax.axhline(0, color="k", lw=0.5)
-        ax.set_ylabel("um")
+        ax.set_ylabel("residual (µm)")
     axes[0, 0].plot([], [], color="C3", label="baseline")
     if D.kept:
         axes[0, 0].plot([], [], color="C2", label="improved")
@@ -294,7 +294,7 @@ def _plot_law(ax, f, D):
     from matplotlib.ticker import NullFormatter
     ax.xaxis.set_minor_formatter(NullFormatter())    # a decade's minor labels overlap
     ax.set_xlabel("|E_l|, liquid field (MV/m)")
-    ax.set_ylabel("rho_l (ohm m)")
+    ax.set_ylabel("ρ_l (Ω m)")
     ax.set_title("field-dependent resistivity: " + ("Eq. (21)" if p.law == "linear" else "monotone spline"),
                  fontsize=9)
 
