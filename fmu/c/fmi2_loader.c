@@ -29,6 +29,7 @@
 #include <sys/stat.h>
 
 #include "fmi2Functions.h"
+#include "fmi2_common.h"
 
 #define STR2(x) #x
 #define STR(x) STR2(x)
@@ -50,55 +51,13 @@ static struct {
 static int loaded; /* impl is complete */
 static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
 
-/* msg as the format string with every '%' doubled, as fmi2_python.c's emit_cb does (hosts
- * such as fmpy print the format without formatting it) */
-static void say(const fmi2CallbackFunctions *cb, const char *name, const char *msg)
-{
-    if (!cb || !cb->logger) return;
-    size_t n = strlen(msg), k = 0;
-    char *esc = (char *)malloc(2 * n + 1);
-    if (!esc) return;
-    for (size_t i = 0; i < n; i++) {
-        esc[k++] = msg[i];
-        if (msg[i] == '%') esc[k++] = '%';
-    }
-    esc[k] = 0;
-    cb->logger(cb->componentEnvironment, name ? name : "", fmi2Error, "logStatusError", esc);
-    free(esc);
-}
-
-static int exists(const char *path)
-{
-    struct stat sb;
-    return stat(path, &sb) == 0;
-}
-
-/* The first line of dir/file (malloc'ed), or NULL. */
-static char *first_line(const char *dir, const char *file)
-{
-    char path[PATH_MAX];
-    snprintf(path, sizeof path, "%s/%s", dir, file);
-    FILE *f = fopen(path, "r");
-    if (!f) return NULL;
-    char line[PATH_MAX] = {0};
-    if (!fgets(line, sizeof line, f)) line[0] = 0;
-    fclose(f);
-    line[strcspn(line, "\r\n")] = 0;
-    return line[0] ? strdup(line) : NULL;
-}
-
 /* The folder where the shared library of the Python at `path` (a venv folder or a
  * python executable) lives: a venv's base installation (pyvenv.cfg's home), else the
  * executable's own installation (<prefix>/bin/python -> <prefix>/lib). */
 static int libdir_of(const char *path, char *out, size_t n)
 {
     char exe[PATH_MAX], cfg[PATH_MAX], real[PATH_MAX];
-    struct stat sb;
-    int is_dir = stat(path, &sb) == 0 && S_ISDIR(sb.st_mode);
-    snprintf(exe, sizeof exe, is_dir ? "%s/bin/python3" : "%s", path);
-    if (!exists(exe)) return 0;
-    const char *slash = strrchr(exe, '/');
-    snprintf(cfg, sizeof cfg, "%.*s/../pyvenv.cfg", slash ? (int)(slash - exe) : 1, slash ? exe : ".");
+    if (!python_of(path, exe, sizeof exe, cfg, sizeof cfg)) return 0;
     FILE *f = fopen(cfg, "r");
     if (f) {
         char line[PATH_MAX], home[PATH_MAX] = {0};
@@ -231,20 +190,14 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     pthread_mutex_lock(&load_lock);
     if (!loaded) {
         char msg[4 * PATH_MAX], *res = NULL;
-        if (resourceLocation) { /* file URI -> path, enough to read python.txt (fmi2_python.c decodes fully) */
-            const char *p = resourceLocation;
-            if (strncmp(p, "file://", 7) == 0) p += 7;
-            else if (strncmp(p, "file:", 5) == 0) p += 5;
-            if (strncmp(p, "localhost/", 10) == 0) p += 9;
-            res = strdup(p);
-        }
+        if (resourceLocation) res = uri_to_path(resourceLocation); /* to read python.txt */
         int ok = load(res ? res : ".", msg, sizeof msg);
         free(res);
         if (ok) __atomic_store_n(&loaded, 1, __ATOMIC_RELEASE);
         else {
             memset(&impl, 0, sizeof impl);
             pthread_mutex_unlock(&load_lock);
-            say(cb, name, msg);
+            log_escaped(cb, name, fmi2Error, "logStatusError", msg);
             return NULL;
         }
     }

@@ -46,6 +46,7 @@
 #include <sys/stat.h>
 
 #include "fmi2Functions.h"
+#include "fmi2_common.h"
 
 /* ------------------------------------------------------------------ state machine */
 /* FMI 2.0.x, section 4.2.4 "State Machine of Calling Sequence from Master to Slave".
@@ -236,24 +237,6 @@ static Comp *registry_find(const void *comp)
 }
 
 /* ------------------------------------------------------------------ logging */
-static void emit_cb(const fmi2CallbackFunctions *cb, const char *name, fmi2Status st, const char *cat,
-                    const char *msg)
-{
-    /* the message is passed as the format string (hosts such as fmpy do not format):
-     * double every '%' so hosts that do format print it unchanged */
-    if (!cb || !cb->logger) return;
-    size_t n = strlen(msg), k = 0;
-    char *esc = (char *)malloc(2 * n + 1);
-    if (!esc) return;
-    for (size_t i = 0; i < n; i++) {
-        esc[k++] = msg[i];
-        if (msg[i] == '%') esc[k++] = '%';
-    }
-    esc[k] = 0;
-    cb->logger(cb->componentEnvironment, name ? name : "", st, cat, esc);
-    free(esc);
-}
-
 static const char *CATS[] = {"logAll", "logStatusWarning", "logStatusDiscard", "logStatusError", "logStatusFatal"};
 
 static fmi2Status logf_(Comp *c, fmi2Status st, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
@@ -264,7 +247,7 @@ static fmi2Status logf_(Comp *c, fmi2Status st, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    emit_cb(&c->cb, c->name, st, CATS[st <= fmi2Fatal ? st : 0], msg);
+    log_escaped(&c->cb, c->name, st, CATS[st <= fmi2Fatal ? st : 0], msg);
     return st;
 }
 
@@ -311,7 +294,7 @@ static fmi2Status drain_log(Comp *c)
                   ms ? ms : "(unreadable message)");
             status = fmi2Warning;
         } else if (c->logging || !debug) {
-            emit_cb(&c->cb, c->name, (fmi2Status)status, cs ? cs : CATS[status], ms ? ms : "(unreadable message)");
+            log_escaped(&c->cb, c->name, (fmi2Status)status, cs ? cs : CATS[status], ms ? ms : "(unreadable message)");
         }
         if (status > (long)worst) worst = (fmi2Status)status;
         Py_XDECREF(st);
@@ -342,7 +325,7 @@ static fmi2Status fail(Comp *c, const char *where)
     char *msg = (char *)malloc(n);
     if (msg) {
         snprintf(msg, n, "%s: %s", where, text);
-        emit_cb(&c->cb, c->name, fmi2Error, "logStatusError", msg);
+        log_escaped(&c->cb, c->name, fmi2Error, "logStatusError", msg);
         free(msg);
     }
     Py_XDECREF(s);
@@ -653,56 +636,6 @@ static int install_slave(Comp *c, PyObject *slave)
     return 1;
 }
 
-static char *read_line(const char *dir, const char *file)
-{
-    char path[4096];
-    if (snprintf(path, sizeof path, "%s/%s", dir, file) >= (int)sizeof path) return NULL;
-    FILE *f = fopen(path, "r");
-    if (!f) return NULL;
-    char line[512] = {0};
-    if (!fgets(line, sizeof line, f)) line[0] = 0;
-    fclose(f);
-    line[strcspn(line, "\r\n")] = 0;
-    return strdup(line);
-}
-
-static int hexval(char ch)
-{
-    if (ch >= '0' && ch <= '9') return ch - '0';
-    if (ch >= 'a' && ch <= 'f') return ch - 'a' + 10;
-    if (ch >= 'A' && ch <= 'F') return ch - 'A' + 10;
-    return -1;
-}
-
-/* file URI -> path: strip the scheme and host part, decode %XX (a malformed escape, or
- * one that would put a NUL in the path, stays literal) */
-static char *uri_to_path(const char *uri)
-{
-    const char *p = uri;
-    if (strncmp(p, "file://", 7) == 0) {
-        p += 7;
-        if (strncmp(p, "localhost/", 10) == 0) p += 9;
-    } else if (strncmp(p, "file:", 5) == 0) {
-        p += 5;
-    }
-    char *out = (char *)malloc(strlen(p) + 1);
-    if (!out) return NULL;
-    size_t k = 0;
-    for (size_t i = 0; p[i]; i++) {
-        int hi = p[i] == '%' && p[i + 1] ? hexval(p[i + 1]) : -1;
-        int lo = hi >= 0 && p[i + 2] ? hexval(p[i + 2]) : -1;
-        if (lo >= 0 && (hi || lo)) {
-            out[k++] = (char)(hi * 16 + lo);
-            i += 2;
-        } else {
-            out[k++] = p[i];
-        }
-    }
-    while (k > 1 && out[k - 1] == '/') k--;
-    out[k] = 0;
-    return out;
-}
-
 /* The Python environment a C host runs the slave in: the variable DFA_FMU_PYTHON (a
  * virtual environment's folder, or a python executable), else the interpreter that
  * built the FMU (resources/python.txt). Returns a malloc'ed path of a python executable,
@@ -711,7 +644,7 @@ static char *uri_to_path(const char *uri)
 static char *choose_python(Comp *c)
 {
     const char *env = getenv("DFA_FMU_PYTHON");
-    char *recorded = read_line(c->resources, "python.txt");
+    char *recorded = first_line(c->resources, "python.txt");
     const char *from = env && env[0] ? "DFA_FMU_PYTHON" : "resources/python.txt (the Python that built the FMU)";
     const char *path = env && env[0] ? env : recorded;
     if (!path || !path[0]) {
@@ -721,11 +654,8 @@ static char *choose_python(Comp *c)
               PY_MAJOR_VERSION, PY_MINOR_VERSION);
         return NULL;
     }
-    char exe[4096], cfg[4096];
-    struct stat sb;
-    int is_dir = stat(path, &sb) == 0 && S_ISDIR(sb.st_mode);
-    snprintf(exe, sizeof exe, is_dir ? "%s/bin/python3" : "%s", path);
-    if (stat(exe, &sb) != 0) {
+    char exe[PATH_MAX], cfg[PATH_MAX];
+    if (!python_of(path, exe, sizeof exe, cfg, sizeof cfg)) {
         logf_(c, fmi2Error, "fmi2Instantiate: %s names %s: no Python there; set DFA_FMU_PYTHON to a Python %d.%d "
                             "environment (a virtual environment's folder or its python) with the FMU's runtime "
                             "dependencies (resources/RUNTIME.txt)", from, exe, PY_MAJOR_VERSION, PY_MINOR_VERSION);
@@ -733,8 +663,6 @@ static char *choose_python(Comp *c)
         return NULL;
     }
     /* a virtual environment states its Python's version: it must be this binary's */
-    char *slash = strrchr(exe, '/');
-    snprintf(cfg, sizeof cfg, "%.*s/../pyvenv.cfg", slash ? (int)(slash - exe) : 1, slash ? exe : ".");
     FILE *f = fopen(cfg, "r");
     if (f) {
         char line[512];
@@ -836,11 +764,11 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
 {
     (void)guid;
     if (type != fmi2CoSimulation) {
-        emit_cb(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: this FMU supports co-simulation only");
+        log_escaped(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: this FMU supports co-simulation only");
         return NULL;
     }
     if (!resourceLocation) {
-        emit_cb(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: no fmuResourceLocation given");
+        log_escaped(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: no fmuResourceLocation given");
         return NULL;
     }
     Comp *c = (Comp *)calloc(1, sizeof(Comp));
@@ -851,12 +779,12 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     c->logging = loggingOn ? 1 : 0;
     c->visible = visible ? 1 : 0;
     if (!c->name || !c->resources) {
-        emit_cb(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: out of memory");
+        log_escaped(cb, name, fmi2Error, "logStatusError", "fmi2Instantiate: out of memory");
         free_comp(c);
         return NULL;
     }
-    char *module = read_line(c->resources, "slavemodule.txt");
-    char *clsname = read_line(c->resources, "slaveclass.txt");
+    char *module = first_line(c->resources, "slavemodule.txt");
+    char *clsname = first_line(c->resources, "slaveclass.txt");
     if (!module || !clsname || !module[0] || !clsname[0]) {
         logf_(c, fmi2Error, "fmi2Instantiate: %s/slavemodule.txt or slaveclass.txt missing or empty "
                             "(fmuResourceLocation wrong?)", c->resources);
