@@ -222,23 +222,20 @@ def cmd_fmu_build(args):
     p = _params(args)
     src = args.params or "preset " + args.preset
     if args.system:
-        from fmu.ssp import build_system
-        out = args.out or "DFASystem.ssp"
-        check_writable("--out", out, ("ssp",))
-        try:
-            out = build_system(p, out)
-        except BuildError as exc:
-            raise CLIError(str(exc)) from None
-        print(f"wrote {out} (SSP 1.0: the actuator with parameters from {src}, the drive electronics and the "
-              f"load, FMI 2.0 co-simulation FMUs; run it with fmpy.ssp.simulate.simulate_ssp or OMSimulator)")
-        return
-    out = args.out or "DFAActuator.fmu"
-    check_writable("--out", out, ("fmu",))
+        from fmu.ssp import build_system as build
+        default, what = "DFASystem.ssp", (f"SSP 1.0: the actuator with parameters from {src}, the drive electronics "
+                                          f"and the load, FMI 2.0 co-simulation FMUs; run it with "
+                                          f"fmpy.ssp.simulate.simulate_ssp or OMSimulator")
+    else:
+        build = build_fmu
+        default, what = "DFAActuator.fmu", f"FMI 2.0 co-simulation; inputs voltage, force; parameters from {src}"
+    out = args.out or default
+    check_writable("--out", out, (default.rpartition(".")[2],))
     try:
-        out = build_fmu(p, out)
+        out = build(p, out)
     except BuildError as exc:
         raise CLIError(str(exc)) from None
-    print(f"wrote {out} (FMI 2.0 co-simulation; inputs voltage, force; parameters from {src})")
+    print(f"wrote {out} ({what})")
 
 
 def _add_protocol_flags(ps):

@@ -26,6 +26,7 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from dfa_model import parameters as P
+from dfa_model.fileio import write_atomic
 
 HERE = Path(__file__).resolve().parent
 SLAVE = HERE / "dfa_actuator.py"
@@ -138,10 +139,7 @@ def _package(script: Path, cls: str, out, project_files, units: dict, serialize=
         from pythonfmu import FmuBuilder
     except ImportError:
         raise BuildError("pythonfmu is not installed: pip install 'dfa-toolkit[fmu]'") from None
-    out = Path(out)
-    if out.suffix != ".fmu":
-        raise BuildError(f"--out: expected a file name ending in .fmu, got {str(out)!r}")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    out = output_path(out, ".fmu")
     with tempfile.TemporaryDirectory(prefix="dfa_fmu_") as tmp:
         tmp = Path(tmp)
         src = tmp / "src"
@@ -165,12 +163,26 @@ def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize, ranges
     loader, implementation = compile_binary(tmp, cls)
     entries[f"binaries/{_platform()}/{cls}.so"] = loader
     entries[f"binaries/{_platform()}/{cls}-python.so"] = implementation
-    tmp_out = out.with_suffix(".fmu.part")
-    with zipfile.ZipFile(tmp_out, "w", zipfile.ZIP_DEFLATED) as zout:
-        for name, data in entries.items():
-            if "__pycache__" not in name:
-                zout.writestr(name, data)
-    os.replace(tmp_out, out)
+    write_zip(out, {name: data for name, data in entries.items() if "__pycache__" not in name})
+
+
+def output_path(out, suffix: str, hint: str = "") -> Path:
+    """`out` as a Path, which must end in `suffix` (BuildError otherwise: `hint` says
+    when), with its folder created."""
+    out = Path(out)
+    if out.suffix != suffix:
+        raise BuildError(f"--out: expected a file name ending in {suffix}{hint}, got {str(out)!r}")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def write_zip(out: Path, entries: dict) -> None:
+    """The archive `out` of entries (name in the archive -> bytes), complete or not at all."""
+    def write(tmp):
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+            for name, data in entries.items():
+                z.writestr(name, data)
+    write_atomic(out, write)
 
 
 def _platform() -> str:

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import os
 import tempfile
-import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
@@ -47,22 +46,15 @@ CONNECTIONS = [("drive", "voltage", "actuator", "voltage"), ("actuator", "capaci
 def build_system(params: P.Parameters | None = None, out: str | os.PathLike = "DFASystem.ssp") -> Path:
     """Build the SSP of the actuator (for `params`, default the Table 1 preset) with the
     drive and load companions; returns its path."""
-    from .build import BuildError, build_companion_fmu, build_fmu
-    out = Path(out)
-    if out.suffix != ".ssp":
-        raise BuildError(f"--out: expected a file name ending in .ssp with --system, got {str(out)!r}")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    from .build import build_companion_fmu, build_fmu, output_path, write_zip
+    out = output_path(out, ".ssp", " with --system")
     with tempfile.TemporaryDirectory(prefix="dfa_ssp_") as tmp:
         tmp = Path(tmp)
         files = {"actuator": build_fmu(params, tmp / COMPONENTS["actuator"][0]),
                  "drive": build_companion_fmu("drive", tmp / COMPONENTS["drive"][0]),
                  "load": build_companion_fmu("load", tmp / COMPONENTS["load"][0])}
-        part = out.with_suffix(".ssp.part")
-        with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("SystemStructure.ssd", system_description())
-            for name, path in files.items():
-                z.write(path, f"resources/{COMPONENTS[name][0]}")
-        os.replace(part, out)
+        write_zip(out, {"SystemStructure.ssd": system_description(),
+                        **{f"resources/{COMPONENTS[name][0]}": path.read_bytes() for name, path in files.items()}})
     return out
 
 
