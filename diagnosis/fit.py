@@ -53,6 +53,7 @@ DELTA_BOUND = 0.5    # |delta_i| at most (a factor 1.65)
 DECIMATE = 5
 OFFSET_PRIOR = 20e-6 # prior SD of a sensor's zero offset (m)
 TIME_PRIOR = 0.2e-3  # prior SD of a recording's timing between the drive and the sensor (s)
+NUISANCES = 3       # unknowns per recording: its resistivity factor, sensor zero and timing (align)
 # the search's step tolerance (scipy's xtol: relative to the norm of the fitted
 # coordinates, which ln rho_l ~ 28 dominates: 1e-5 stops at steps of ~3e-4 in z, a
 # hundredth of a typical standard error; 1e-6 spent 2-3 more runs of every recording
@@ -181,7 +182,7 @@ class FitResult:
     heldout_rmse: float | None
     rss: float                        # sum of squared training residuals over fitted samples (m^2)
     n: int                            # fitted samples
-    k: int                            # fitted unknowns (globals + deltas + offsets)
+    k: int                            # fitted unknowns (globals + NUISANCES per training recording)
     cost: float
     wall_time: float
     runs: int
@@ -423,7 +424,7 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
            "pin": prob.pin}
     J = J[:n + R]    # the zero-sum pin is a device of the search: the level's error keeps the repetitions' mean
     r_fit = sol.fun[:n]
-    dof = max(n - (k + 2 * R), 1)
+    dof = max(n - (k + NUISANCES * R), 1)
     s2 = max(1.0, float(np.sum(r_fit ** 2)) / dof)
     rho1 = float(np.clip(np.corrcoef(r_fit[:-1], r_fit[1:])[0, 1], 0.0, 0.99)) if n > 3 else 0.0
     cov = np.linalg.pinv(J.T @ J) * s2 * (1 + rho1) / (1 - rho1)
@@ -458,5 +459,5 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
                      offsets=offsets, time_shifts=shifts, simulated=simulated,
                      train_rmse=math.sqrt(sq["train"][0] / sq["train"][1]),
                      heldout_rmse=math.sqrt(sq["held"][0] / sq["held"][1]) if held else None, rss=rss, n=n,
-                     k=k + 2 * R, cost=float(sol.cost), wall_time=time.perf_counter() - wall, runs=runner.runs,
+                     k=k + NUISANCES * R, cost=float(sol.cost), wall_time=time.perf_counter() - wall, runs=runner.runs,
                      notes=notes, cov_z=cov[:k, :k].copy(), z=np.array(x[:k]), lsq=lsq)
