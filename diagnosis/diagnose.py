@@ -200,7 +200,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
             if not ok:
                 break
             best_key = min(ok, key=lambda n: fits[n].bic)
-            kept.append(next(e for e in pool if e.key == best_key))
+            kept.append(prepared[best_key][0])
             current = fits[best_key]
             say(f"kept {best_key}: BIC {ev[best_key]['delta_bic']:+.1f}, held out {_um(current.heldout_rmse)}")
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx)

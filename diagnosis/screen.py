@@ -32,12 +32,8 @@ difference of two runs' integration errors, which is smooth in the parameters at
 (1e-6 gave the same LM to a few units on the true model and on a model one effect short,
 at twice the runs' cost).
 
-diagnose.shortlist fits in full the candidates whose predicted BIC falls and whose
-predicted held-out error falls by SCREEN_HELDOUT, with an LM of at least SCREEN_REL of
-the round's best (the round keeps one candidate, the best by BIC; one whose first step
-does a fifth of the best's rarely overtakes it), and at least the SCREEN_TOP best of
-those. A correct model leaves LM ~ chi2 with k degrees of freedom, far under k ln n: no
-full fit at all.
+diagnose.shortlist says which candidates these predictions send to a full fit. A correct
+model leaves LM ~ chi2 with k degrees of freedom, far under k ln n: no full fit at all.
 """
 from __future__ import annotations
 
