@@ -147,9 +147,14 @@ class Kernel:
         self.__name__, self.__doc__ = fn.__name__, fn.__doc__
         _KERNELS.append(self)
 
+    def serves(self, args) -> bool:
+        """Whether the compiled export takes these arguments (it exists, and they have
+        its types)."""
+        return (self._export is not None and len(args) == len(self._checks)
+                and all(check(a) for check, a in zip(self._checks, args)))
+
     def __call__(self, *args):
-        if (self._export is not None and len(args) == len(self._checks)
-                and all(check(a) for check, a in zip(self._checks, args))):
+        if self.serves(args):
             return self._export(*args)
         if self.dispatcher is None:
             jit_all()
@@ -188,7 +193,7 @@ def prepare(kernel, *args) -> None:
     """Compile or load `kernel` for these arguments now (numba), so that a timed call
     that follows measures the computation only. Nothing to do for compiled exports."""
     disp = kernel.dispatcher if isinstance(kernel, Kernel) else kernel
-    if isinstance(kernel, Kernel) and kernel._export is not None and all(c(a) for c, a in zip(kernel._checks, args)):
+    if isinstance(kernel, Kernel) and kernel.serves(args):
         return
     if disp is None:
         jit_all()
