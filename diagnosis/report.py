@@ -151,9 +151,10 @@ def _per_condition(D, row_height):
 
 
 def _finish(plt, fig, axes, path):
-    axes[0, 0].legend(fontsize=8, loc="upper right")
+    # the legend above the panels, beside the title: inside one it covered the data
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), fontsize=8, loc="upper right", ncol=3, frameon=False)
     axes[-1, 0].set_xlabel("time (s)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.98))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
