@@ -79,15 +79,15 @@ def main():
     print(f"    stroke RMS error {rms_difference(red.trace, full.trace) / rng * 100:.2f} % of range, unzipping "
           f"speed {full.unzipping_speed * 1e6:.3f} vs {red.unzipping_speed * 1e6:.3f} um/s")
 
-    V, F, f, duty, H = 6000.0, 5.0, 30.0, 0.5, 3600.0
+    V, F, f, share, H = 6000.0, 5.0, 30.0, 0.5, 3600.0
     xs = averaged.static_stroke(p, V, F)
     fr = []
 
     def run_full():
-        fr.append(averaged.simulate_full(p, V, F, f, duty, H, x_static=xs))
+        fr.append(averaged.simulate_full(p, V, F, f, share, H, x_static=xs))
     t_hfull = median_time(run_full, a.hour_repeats)
-    avg = averaged.simulate_averaged(s, V, F, f, duty, H, x_static=xs)
-    t_havg = median_time(lambda: averaged.simulate_averaged(s, V, F, f, duty, H, x_static=xs), a.repeats)
+    avg = averaged.simulate_averaged(s, V, F, f, share, H, x_static=xs)
+    t_havg = median_time(lambda: averaged.simulate_averaged(s, V, F, f, share, H, x_static=xs), a.repeats)
     _, rip_f, dr_f = fr[-1]
     print(f"\n(2) one hour of {f:g} Hz inversion ({int(2 * f * H)} inversions), median")
     print(f"    full model        {t_hfull:8.3f} s")

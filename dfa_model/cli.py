@@ -75,10 +75,45 @@ def _params(args):
     return parameters.apply_sets(p, args.set)
 
 
+# the flags a protocol file replaces
+DRIVE_FLAGS = ("voltage", "waveform", "frequency", "duty", "reset", "reset_frequency", "duration")
+
+
 def _protocol(args):
+    """The run's protocol: the --protocol file, or the one the drive flags describe."""
     from .waveforms import build_protocol
+    if getattr(args, "protocol", None):
+        given = [f"--{k.replace('_', '-')}" for k in DRIVE_FLAGS if getattr(args, k, None) not in (None, False)
+                 and not (k == "waveform" and args.waveform == "dc") and not (k == "reset" and args.reset == 0)]
+        if given:
+            raise CLIError(f"--protocol: the protocol file describes the whole drive; remove {', '.join(given)}")
+        from .protocol_file import load
+        return load(args.protocol)
+    if args.voltage is None:
+        raise CLIError("--voltage: required (amplitude, V), or --protocol FILE")
     return build_protocol(args.voltage, args.duration, args.waveform, args.frequency, args.duty, args.reset,
                           args.reset_frequency)
+
+
+def _load(args, proto):
+    """The run's load: --force if given (it replaces a protocol file's [load], said on
+    stderr when they differ), else the protocol file's, else 0 N."""
+    from .waveforms import Load
+    if args.force is None:
+        return proto.load if proto.load is not None else Load(0.0)
+    if proto.load is not None and not (proto.load.k_load == 0 and not callable(proto.load.F)
+                                       and not hasattr(proto.load.F, "times") and proto.load.F == args.force):
+        print(f"dfa: note: --force {args.force:g} N replaces the protocol file's [load]", file=sys.stderr)
+    return Load(args.force)
+
+
+def _describe_drive(args, proto, load) -> str:
+    """One line saying what was run (the CSV's comment, the plot's title)."""
+    from .plotting import describe_load
+    if getattr(args, "protocol", None):
+        return f"protocol {args.protocol} ({proto.duration:g} s), {describe_load(load)}"
+    return (f"voltage {args.voltage:g} V, {describe_load(load)}, waveform {args.waveform}, reset {args.reset or 0:g} s, "
+            f"duration {args.duration:g} s")
 
 
 def _process_start() -> float:
@@ -129,10 +164,11 @@ def cmd_simulate(args):
         check_writable("--plot", args.plot, PLOT_FORMATS)
     t_eval = _output_times(proto.duration, args.dt) if args.dt else None
     src = f"preset {args.preset}" if args.preset else f"params {args.params}"
-    comment = (f"{' '.join([src] + list(args.set or []))}; voltage {args.voltage:g} V, force {args.force:g} N, waveform "
-               f"{args.waveform}, reset {args.reset or 0:g} s, duration {args.duration:g} s")
+    load = _load(args, proto)
+    comment = f"{' '.join([src] + list(args.set or []))}; {_describe_drive(args, proto, load)}"
     try:
-        res = simulate(p, proto, load=args.force, t_eval=t_eval, max_steps=args.max_steps)
+        # --json reports the source's input power: the energy record (about 1.7x the run's time)
+        res = simulate(p, proto, load=load, t_eval=t_eval, max_steps=args.max_steps, energy=bool(args.json))
     except SolverError as exc:
         part = exc.partial
         if args.out and part is not None and part.t.size:     # never lose what was computed
@@ -147,13 +183,19 @@ def cmd_simulate(args):
         from ._jit import MODE
         # wall_time: the simulation alone; startup_time: the process until the run began
         # (interpreter, imports, checks, and numba's compilation or cache load if any)
-        print(json.dumps({**res.summary(), "startup_time": res.started - _process_start(), "kernels": MODE}))
+        started = res.started - _process_start()
+        print(json.dumps(json_safe({**res.summary(), **res.drive_summary(), "startup_time": started,
+                                     "kernels": MODE})))
     elif not args.out and not args.plot:
         sys.stdout.write(res.to_csv())
     else:
         s = res.summary()
+        held = ""
+        if res.period is not None and res.period <= proto.duration:
+            held = (f", ripple {res.ripple() * 1e6:.3f} um, drift {res.drift * 1e6:.3f} um (stroke lost against the "
+                    f"uncharged static {res.x_static * 1e3:.4f} mm)")
         print(f"static stroke {s['static_stroke'] * 1e3:.4f} mm, final stroke {s['final_stroke'] * 1e3:.4f} mm, "
-              f"unzipping speed {s['unzipping_speed'] * 1e6:.4f} um/s ({s['wall_time'] * 1e3:.1f} ms, "
+              f"unzipping speed {s['unzipping_speed'] * 1e6:.4f} um/s{held} ({s['wall_time'] * 1e3:.1f} ms, "
               f"{s['steps']} steps)" + (f"; wrote {args.out}" if args.out else "") + (f", {args.plot}" if args.plot else ""),
               file=sys.stderr)
 
@@ -176,7 +218,9 @@ def cmd_sweep(args):
     p = _params(args)
     if args.out:
         check_writable("--out", args.out)
-    settings = {"voltage": args.voltage, "force": args.force, "waveform": args.waveform, "frequency": args.frequency,
+    if args.voltage is None:
+        raise CLIError("--voltage: required (amplitude, V)")
+    settings = {"voltage": args.voltage, "force": 0.0 if args.force is None else args.force, "waveform": args.waveform, "frequency": args.frequency,
                 "duty": args.duty, "reset": args.reset, "reset_frequency": args.reset_frequency,
                 "duration": args.duration}
     axes = sweep.parse_vary(args.vary)
@@ -238,15 +282,37 @@ def cmd_fmu_build(args):
     print(f"wrote {out} ({what})")
 
 
-def _add_protocol_flags(ps):
+def json_safe(v):
+    """v for json.dumps: non-finite numbers become null (JSON has no NaN or Infinity),
+    NumPy scalars plain Python ones; dicts and lists recursively. One cleaner for every
+    subcommand's --json."""
+    if isinstance(v, dict):
+        return {k: json_safe(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [json_safe(x) for x in v]
+    if isinstance(v, float) or type(v).__module__ == "numpy" and hasattr(v, "dtype") and v.dtype.kind == "f":
+        v = float(v)
+        return v if math.isfinite(v) else None
+    if type(v).__module__ == "numpy" and hasattr(v, "dtype") and v.dtype.kind in "biu":
+        return v.item()
+    return v
+
+
+def _add_protocol_flags(ps, protocol_file=False):
     V = limits.MAX_VOLTAGE
-    ps.add_argument("--voltage", type=_number(-V, V), required=True, help="amplitude, V")
-    ps.add_argument("--force", type=_number(-limits.MAX_FORCE, limits.MAX_FORCE), default=0.0,
-                    help="load opposing zipping, N (default 0)")
+    ps.add_argument("--voltage", type=_number(-V, V), required=not protocol_file,
+                    help="amplitude, V" + (" (or --protocol FILE)" if protocol_file else ""))
+    if protocol_file:
+        ps.add_argument("--protocol", metavar="DRIVE.toml",
+                        help="the drive as a protocol file (README, 'Protocol file'), instead of --voltage, "
+                             "--waveform, --frequency, --duty, --reset, --duration")
+    ps.add_argument("--force", type=_number(-limits.MAX_FORCE, limits.MAX_FORCE), default=None,
+                    help="load opposing zipping, N (default: the protocol file's [load], else 0)")
     ps.add_argument("--waveform", choices=["dc", "bipolar", "unipolar"], default="dc")
     ps.add_argument("--frequency", type=_number(0.0, 1e6, lo_open=True), help="square-wave frequency, Hz")
     ps.add_argument("--duty", type=_number(0.0, 1.0, lo_open=True),
-                    help="duty (bipolar: fraction of each half period on, default 1; unipolar: default 0.5)")
+                    help="bipolar: share of each half period at full voltage (default 1: no dead time); unipolar: "
+                         "share of each period on (default 0.5)")
     ps.add_argument("--reset", type=_number(0.0, limits.MAX_DURATION), default=0.0, metavar="SECONDS",
                     help="charge reset first: bipolar square wave at the same voltage (Sec. 4.2)")
     ps.add_argument("--reset-frequency", type=_number(0.0, 1e6, lo_open=True), metavar="HZ",
@@ -274,7 +340,7 @@ def build_parser(plugins=True):
 
     ps = sub.add_parser("simulate", help="simulate a protocol; write CSV, plot, JSON metrics")
     _add_params_flags(ps)
-    _add_protocol_flags(ps)
+    _add_protocol_flags(ps, protocol_file=True)
     ps.add_argument("--dt", type=_number(0.0), default=1e-3, help="output sampling, s (default 1e-3; 0: every step)")
     ps.add_argument("--max-steps", type=_number(1, 1e9, integer=True), default=limits.MAX_STEPS,
                     help=f"step limit (default {limits.MAX_STEPS:,}): the run stops there with its partial result")

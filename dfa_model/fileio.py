@@ -61,3 +61,21 @@ def write_atomic(path, write) -> None:
 
 def write_text_atomic(path, text: str) -> None:
     write_atomic(path, lambda tmp: Path(tmp).write_text(text))
+
+
+def toml_float(v) -> str:
+    """A float as TOML text that reads back to the same float: the shortest of %.6g ..
+    %.17g that round-trips, with a decimal point or exponent so TOML reads a float
+    (6000.0, 2e+12, 1.7556e-05, inf)."""
+    v = float(v)
+    if v != v:
+        return "nan"
+    if v in (float("inf"), float("-inf")):
+        return "inf" if v > 0 else "-inf"
+    for digits in range(6, 18):
+        text = f"{v:.{digits}g}"
+        if float(text) == v:
+            break
+    if not any(c in text for c in ".en"):
+        text += ".0"
+    return text

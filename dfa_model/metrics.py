@@ -51,20 +51,24 @@ def cycles(trace: StrokeTrace, period: float, t0: float, t1: float) -> np.ndarra
     return np.column_stack([a, trace.mean(a, b), lo, hi])
 
 
-def ripple(trace: StrokeTrace, period: float, t0: float, t1: float, last: int = 5) -> float:
-    """Peak-to-peak stroke within a period, mean over the last `last` periods (m); NaN
-    if the window holds no whole period."""
-    c = cycles(trace, period, t0, t1)
+def last_periods(trace: StrokeTrace, period: float, n: int = 1, t_end: float | None = None):
+    """(ripple, mean) over the last `n` whole periods ending at t_end (default the end of
+    the record): the mean peak-to-peak stroke within a period and the time mean of the
+    stroke over the last one (m). The one definition of ripple and of the end's period
+    mean (README, 'Words with one meaning'): the full model, the surrogates, `dfa design`
+    and `dfa compare` all take them from here."""
+    t1 = trace.t1 if t_end is None else t_end
+    c = cycles(trace, period, t1 - n * period, t1)
     if len(c) == 0:
-        return float("nan")
-    c = c[-last:]
-    return float(np.mean(c[:, 3] - c[:, 2]))
+        raise ValueError(f"period: {period:g} s is longer than the record ({trace.t1 - trace.t0:g} s)")
+    return float(np.mean(c[:, 3] - c[:, 2])), float(c[-1, 1])
 
 
-def drift(trace: StrokeTrace, period: float, t0: float, t1: float, skip: int = 1) -> float:
-    """Slope of the per-cycle mean stroke against time (m/s), skipping `skip` cycles of
-    start-up; NaN with fewer than two cycles. Negative: the stroke creeps down."""
+def drift_rate(trace: StrokeTrace, period: float, t0: float, t1: float, skip: int = 1) -> float:
+    """Rate at which the per-period mean stroke is lost (m/s, positive when the stroke
+    creeps down): minus the slope of a straight line through the per-period means over
+    [t0, t1], skipping `skip` periods of start-up; NaN with fewer than two periods."""
     c = cycles(trace, period, t0, t1)[skip:]
     if len(c) < 2:
         return float("nan")
-    return float(np.polyfit(c[:, 0], c[:, 1], 1)[0])
+    return float(-np.polyfit(c[:, 0], c[:, 1], 1)[0])

@@ -16,6 +16,8 @@ from importlib import resources
 from pathlib import Path
 from types import SimpleNamespace
 
+from .fileio import toml_float
+
 EPS0 = 8.8541878128e-12  # vacuum permittivity, F/m
 
 LAYOUTS = ("v-shaped", "peano-hasel")
@@ -218,13 +220,15 @@ class Parameters:
         return "\n".join(lines) + "\n"
 
     def save(self, path) -> None:
-        Path(path).write_text(self.to_toml())
+        from .fileio import write_text_atomic
+        write_text_atomic(path, self.to_toml())
 
 
 def _fmt(v) -> str:
+    # exact: a file written here reads back to the same parameters (improved.toml, surrogates)
     if isinstance(v, int):
         return str(v)
-    return repr(float(v)) if abs(v) >= 1e-3 and abs(v) < 1e6 else f"{v:.6g}"
+    return toml_float(v)
 
 
 def applies(p, key: str) -> bool:

@@ -67,17 +67,71 @@ class StrokeMetrics:
         return self.trace.max()
 
     def _window(self, label):
-        span = self.stage(label)
+        span = self.stage(label) if label is not None else None
         return span if span is not None else (self.trace.t0, self.trace.t1)
 
-    def ripple(self, period, label="hold", last=5):
-        """Peak-to-peak stroke per period (m), mean over the last `last` whole periods
-        of stage `label`."""
-        return metrics.ripple(self.trace, period, *self._window(label), last)
+    # ------------------------------------------------- words with one meaning
+    @property
+    def period(self) -> float | None:
+        """Period of the last stage's square wave (s), None if it is not periodic."""
+        return getattr(self.protocol.stages[-1].waveform, "period", None)
 
-    def drift(self, period, label="hold", skip=1):
-        """Slope of the per-period mean stroke (m/s) over stage `label`."""
-        return metrics.drift(self.trace, period, *self._window(label), skip)
+    def _period(self, period, name):
+        period = self.period if period is None else period
+        if period is None:
+            raise ValueError(f"{name}: the run's last stage is not periodic; give the period (s)")
+        return period
+
+    @property
+    def x_static(self) -> float:
+        """The uncharged static stroke (m) at the last stage's amplitude and the load at the
+        end (statics.equilibrium_stroke): what the stroke would be without interface charge."""
+        if getattr(self, "_x_static", None) is None:
+            import warnings
+
+            from .dielectrics import PhysicsWarning
+            from .statics import equilibrium_stroke
+            t1 = self.protocol.duration
+            F = float(self.load.piecewise(t1)(t1))
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", PhysicsWarning)
+                self._x_static = float(equilibrium_stroke(self.params, self.protocol.stages[-1].waveform.amplitude,
+                                                          F, warn=False, k_load=self.load.k_load))
+        return self._x_static
+
+    def ripple(self, period=None, last=1) -> float:
+        """Peak-to-peak stroke over one period (m): the last whole period of the run (the
+        mean over the last `last` periods); period defaults to the last stage's."""
+        return metrics.last_periods(self.trace, self._period(period, "ripple"), last)[0]
+
+    @property
+    def end_stroke(self) -> float:
+        """The stroke the run ends at (m): the mean over the last period of a periodic last
+        stage (its ripple averaged out), else the final stroke."""
+        if self.period is None or self.period > self.trace.t1 - self.trace.t0:
+            return self.final_stroke
+        return metrics.last_periods(self.trace, self.period)[1]
+
+    @property
+    def drift(self) -> float:
+        """Stroke lost over the run (m, positive when lost): x_static minus end_stroke.
+        (It was a rate of the other sign, drift(period): that is drift_rate now; calling
+        drift(...) fails rather than return a length where a rate was meant.)"""
+        return _Length(self.x_static - self.end_stroke)
+
+    def drift_rate(self, period=None, label="hold", skip=1) -> float:
+        """Rate of stroke loss (m/s, positive when the stroke creeps down): the slope of the
+        per-period mean stroke over stage `label` (the whole run if it has none), sign
+        flipped; period defaults to the last stage's."""
+        return metrics.drift_rate(self.trace, self._period(period, "drift_rate"), *self._window(label), skip)
+
+
+class _Length(float):
+    """A float that says what to call instead when called like the old drift(period)."""
+
+    def __call__(self, *args, **kwargs):
+        raise TypeError("drift is the stroke lost over the run (m, positive when lost), a number, not a method; "
+                        "the rate of the per-period mean stroke is drift_rate(period) (m/s, positive when lost)")
 
 
 class Result(StrokeMetrics):
@@ -118,6 +172,37 @@ class Result(StrokeMetrics):
         return {"static_stroke": self.static_stroke, "final_stroke": self.final_stroke,
                 "unzipping_speed": self.unzipping_speed, "wall_time": self.wall_time,
                 "steps": self.n_steps, "rejected_steps": self.n_rejected}
+
+    def drive_summary(self) -> dict:
+        """The words of a held stroke (README, 'Words with one meaning'): x_static,
+        end_stroke and drift (m, positive when lost); for a periodic last stage also its
+        period, ripple (m, the last period) and drift_rate (m/s, positive when lost, over
+        that stage); input_power (W): the source's mean power over the last period (else
+        the run) when energy was integrated."""
+        out = {"x_static": self.x_static, "end_stroke": self.end_stroke, "drift": float(self.drift)}
+        T = self.period
+        if T is not None and T <= self.trace.t1 - self.trace.t0:
+            out.update(period=T, ripple=self.ripple(), drift_rate=self.drift_rate(T, label=None))
+        if self.has_energy:
+            out["input_power"] = self.input_power()
+        return out
+
+    def input_power(self, t0=None) -> float:
+        """Mean power the source delivers (W) over [t0, end], from the energy record's E_in
+        (simulate(..., energy=True)): t0 defaults to the start of the last period of a
+        periodic last stage (the drive's steady power), else the start. E_in is exact at the
+        output times and interpolated linearly between them (sample t0 with t_eval for an
+        exact figure)."""
+        if not self.has_energy:
+            raise ValueError("input_power: run simulate(..., energy=True)")
+        t1 = float(self.t[-1])
+        if t0 is None:
+            T = self.period
+            t0 = t1 - T if T is not None and T < t1 - self.t[0] else float(self.t[0])
+        if not t1 > t0:
+            return 0.0
+        e0 = float(np.interp(t0, self.t, self.rec[:, R_EIN]))
+        return float((self.rec[-1, R_EIN] - e0) / (t1 - t0))
 
     # ---------------------------------------------------------------- energy
     def energy_balance(self) -> dict:

@@ -49,13 +49,22 @@ def _as_protocol(protocol, duration) -> Protocol:
     return Protocol.single(protocol, duration)
 
 
-def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=False, charges=False,
+def protocol_load(protocol: Protocol, load) -> Load:
+    """The load of a run: `load` (a Load or a constant force, N) if given, else the
+    protocol's own (a protocol file's [load]), else 0 N."""
+    if load is None:
+        load = protocol.load if protocol.load is not None else 0.0
+    return load if isinstance(load, Load) else Load(load)
+
+
+def simulate(params, protocol, load=None, duration=None, *, t_eval=None, energy=False, charges=False,
              rtol=None, x0=0.0, V_before=0.0, y0=None, max_steps=limits.MAX_STEPS, warn=True) -> Result:
     """Simulate an actuator.
 
     params    Parameters or DFAModel.
     protocol  Protocol, a Waveform (with `duration`), or a DC voltage (with `duration`).
-    load      Load, or a constant force in N (opposing zipping).
+    load      Load, or a constant force in N (opposing zipping); default the protocol's
+              own load (a protocol file's [load]), else 0.
     t_eval    output times (s); default: every accepted integrator step.
     energy    also integrate the energy balance terms (see Result.energy_balance()).
     charges   also keep the element states at every output (the charge distribution).
@@ -69,8 +78,7 @@ def simulate(params, protocol, load=0.0, duration=None, *, t_eval=None, energy=F
     """
     model = _as_model(params)
     protocol = _as_protocol(protocol, duration)
-    if not isinstance(load, Load):
-        load = Load(load)
+    load = protocol_load(protocol, load)
     p = model.params
     T = protocol.duration
     t, V0, Vs, F0, Fs = merge(protocol.piecewise(), load.piecewise(T))

@@ -125,56 +125,201 @@ class DC(Waveform):
         return Piecewise(np.array([0.0, duration]), np.array([self.V]), np.zeros(1))
 
 
-def _square(duration, period, levels):
-    """Repeat (fraction, level) pieces each period, truncated at duration."""
-    levels = [(frac, lev) for frac, lev in levels if frac > 0]
-    n_per = max(int(math.ceil(duration / period - 1e-12)), 1)
-    check_segments("frequency", n_per * len(levels),
-                   f"{1 / period:g} Hz over {duration:g} s; lower the frequency or shorten the run")
-    # breakpoints k*period + cumulative fraction * period, computed without drift
-    acc = np.cumsum([frac for frac, _ in levels])
-    k = np.arange(n_per)[:, None]
-    t = np.concatenate([[0.0], (k * period + acc[None, :] * period).ravel()])
-    v = np.broadcast_to(np.array([lev for _, lev in levels], float), (n_per, len(levels))).ravel()
-    keep = t[1:] < duration - 1e-12
-    n = int(np.sum(keep)) + 1
-    t = np.concatenate([t[:n], [duration]])
-    return Piecewise(t, v[:n], np.zeros(n))
+class _Periodic(Waveform):
+    """A periodic square wave of `frequency` (Hz) built from its switching instants.
 
+    Each switch between two levels is centred on its ideal instant; with a finite
+    `slew_rate` (V/s) it is a linear ramp taking |jump| / slew_rate (so the period mean
+    is that of the ideal wave), otherwise a jump. `phase` (share of a period, [0, 1), or
+    "balanced": balanced_phase) starts the drive that far into its period; phase 0
+    starts at the first switch to the first level (the voltage before a protocol is 0)."""
 
-class _Square(Waveform):
-    def __post_init__(self):
+    def _check_common(self):
         self.V = _level("voltage", self.V)
         self.frequency = _finite("frequency", self.frequency, 0.0, lo_incl=False, hi=1e6)
         self.duty = _finite("duty", self.duty, 0.0, lo_incl=False, hi=1.0)
+        self.slew_rate = _finite("slew_rate", self.slew_rate, 0.0, lo_incl=False) if self.slew_rate is not None \
+            and self.slew_rate != math.inf else None
+        balanced = isinstance(self.phase, str)
+        if balanced and self.phase != "balanced":
+            raise WaveformError(f"phase: got {self.phase!r}, expected a share of a period in [0, 1) or 'balanced'")
+        if not balanced:
+            self.phase = _finite("phase", self.phase, 0.0, hi=1.0)
+            if self.phase >= 1.0:
+                raise WaveformError(f"phase: got {self.phase:g}, expected a share of a period in [0, 1)")
+        self.knots()          # the ramps must fit in the period (raises naming slew_rate)
+        if balanced:
+            self.phase = 0.0
+            self.phase = balanced_phase(self)
+
+    @property
+    def period(self) -> float:
+        return 1.0 / self.frequency
+
+    def transitions(self):
+        """One period's switches: [(instant as a share of the period, from level, to level)]."""
+        raise NotImplementedError
+
+    def ramp_time(self, jump) -> float:
+        """Duration (s) of a switch of `jump` volts: |jump| / slew_rate (0: ideal)."""
+        return 0.0 if self.slew_rate is None else abs(jump) / self.slew_rate
+
+    def knots(self):
+        """(times, levels) of one period's polyline, from the first switch's ramp start
+        (times may start below 0 and end above the period: ramps centred on an instant
+        reach across it). Consecutive equal times are a jump. Raises WaveformError naming
+        slew_rate when two ramps would overlap."""
+        T = self.period
+        tr = self.transitions()
+        c = np.array([share * T for share, _, _ in tr])
+        h = np.array([0.5 * self.ramp_time(b - a) for _, a, b in tr])
+        gap = np.append(c[1:], c[0] + T) - c - np.append(h[1:], h[0]) - h
+        if np.any(gap < -1e-12 * T):
+            span = np.append(c[1:], c[0] + T) - c
+            f_max = float(np.min(span * self.frequency / (h + np.append(h[1:], h[0]))))
+            raise WaveformError(f"slew_rate: ramps of up to {2 * h.max():.4g} s (|jump| / {self.slew_rate:g} V/s) do "
+                                f"not fit between the switches of {self.frequency:g} Hz at duty {self.duty:g}; expected a "
+                                f"frequency <= {f_max:.4g} Hz or a faster slew rate")
+        times = np.ravel(np.column_stack([c - h, c + h]))
+        levels = np.ravel([[a, b] for _, a, b in tr]).astype(float)
+        return times, levels
+
+    def piecewise(self, duration):
+        T = self.period
+        tk, yk = self.knots()
+        t0 = self.phase * T
+        t1 = t0 + duration
+        k0 = math.floor((t0 - tk[0]) / T)           # tiles of one period's knots covering [t0, t1]
+        k1 = math.ceil((t1 - tk[-1]) / T) + 1
+        check_segments("frequency", (k1 - k0) * len(tk),
+                       f"{self.frequency:g} Hz over {duration:g} s; lower the frequency or shorten the run")
+        k = np.arange(k0, k1)[:, None]
+        t = (tk[None, :] + k * T).ravel()
+        y = np.broadcast_to(yk, (len(k), len(yk))).ravel()
+        # the polyline's pieces of positive length (a jump is two knots at one time)
+        j = np.nonzero(t[1:] > t[:-1])[0]
+        a, b = t[j], t[j + 1]
+        eps = 1e-12 * max(t1, 1.0)
+        keep = (b > t0 + eps) & (a < t1 - eps)
+        j, a, b = j[keep], a[keep], b[keep]
+        slope = (y[j + 1] - y[j]) / (b - a)
+        start = np.maximum(a, t0)
+        v0 = y[j] + slope * (start - a)
+        return Piecewise(np.append(start, t1) - t0, v0, slope)
+
+
+def balanced_phase(wave) -> float:
+    """The phase (share of a period) at which g(t) = int_0^t (V - <V>) dt' first crosses
+    its period mean (rising; falling for a negative amplitude): a drive started there has
+    its interface charge oscillate about its period mean from the first period, instead
+    of about an offset ~ V T / 4 that only leakage removes (tens of seconds). For ideal
+    symmetric inversion that is T/4: half a pulse first. Exact (g is piecewise quadratic)."""
+    from dataclasses import replace
+    w0 = replace(wave, phase=0.0)
+    t, v0, sl, g, vm, gm = _charge_profile(w0)
+    sg = 1.0 if wave.V >= 0 else -1.0
+    for i in range(len(v0)):
+        # sg (g - <g>) on the segment: a + b s + c s^2 for s in [0, dt]
+        a, b, c = sg * (g[i] - gm), sg * (v0[i] - vm), sg * 0.5 * sl[i]
+        if a >= 0.0:
+            return float(t[i] / w0.period) if i else 0.0
+        roots = np.roots([c, b, a]) if c != 0.0 else (np.array([-a / b]) if b != 0.0 else np.array([]))
+        roots = np.real(roots[np.abs(np.imag(roots)) <= 1e-12 * (abs(b) + abs(c) + 1e-300)])
+        hit = roots[(roots >= 0.0) & (roots <= t[i + 1] - t[i])]
+        if hit.size:
+            return float(min((t[i] + hit.min()) / w0.period, np.nextafter(1.0, 0.0)))
+    return 0.0
+
+
+def charge_phase_offset(wave) -> float:
+    """<g> - g(start) over one period from the drive's start (its phase), with g(t) =
+    int (V - <V>) dt' (V s): a run from uncharged that starts there has its interface
+    charge oscillate about b <g> (b: the charge's input gain) until leakage removes it;
+    0 at the balanced phase."""
+    return _charge_profile(wave)[5]
+
+
+def _charge_profile(wave):
+    """Over one period from the drive's start: breakpoints t, the segments' start values
+    and slopes, g = int (V - <V>) at the breakpoints, <V>, and <g> (exact integrals of
+    the piecewise-linear V)."""
+    pw = wave.piecewise(wave.period)
+    t, v0, sl = pw.t, pw.v0, pw.slope
+    T = t[-1] - t[0]
+    dt = np.diff(t)
+    vm = float(np.sum(v0 * dt + 0.5 * sl * dt * dt) / T)
+    g = np.concatenate([[0.0], np.cumsum((v0 - vm) * dt + 0.5 * sl * dt * dt)])
+    gm = float(np.sum(g[:-1] * dt + 0.5 * (v0 - vm) * dt * dt + sl * dt ** 3 / 6.0) / T)
+    return t, v0, sl, g, vm, gm
 
 
 @dataclass
-class Bipolar(_Square):
+class Bipolar(_Periodic):
     """Polarity inversion: +V, -V square wave of `frequency` (full periods per second).
-    `duty` is the fraction of each half period at full voltage (1.0: the paper's
-    100 % duty cycle, no dead time); the rest of each half period is at 0 V."""
+
+    duty          the share of each half period at full voltage (the paper's duty
+                  cycle: 1.0 = 100 %, no dead time; the rest of each half is at 0 V).
+                  One meaning everywhere: this class, `dfa simulate --duty`, the
+                  protocol file, `dfa design` and the FMU drive.
+    slew_rate     V/s: each switch a linear ramp centred on its ideal instant (an
+                  inversion +V -> -V takes 2 V / slew_rate); None: ideal switching.
+                  Where the 0 V gap between the two ramps of an inversion is shorter
+                  than they need, the inversion is one ramp through 0 centred on the gap.
+    phase         share of a period at which the drive starts, or "balanced"
+                  (balanced_phase: the charge-balanced start).
+    positive_share  share of each period given to the positive half (0.5: symmetric;
+                  otherwise the drive has a mean of (2 positive_share - 1) duty V)."""
 
     V: float
     frequency: float
     duty: float = 1.0
+    slew_rate: float | None = None
+    phase: float | str = 0.0
+    positive_share: float = 0.5
 
-    def piecewise(self, duration):
-        d = self.duty
-        return _square(duration, 1.0 / self.frequency,
-                       [(d / 2, self.V), ((1 - d) / 2, 0.0), (d / 2, -self.V), ((1 - d) / 2, 0.0)])
+    def __post_init__(self):
+        self.positive_share = _finite("positive_share", self.positive_share, 0.0, lo_incl=False, hi=1.0)
+        if self.positive_share >= 1.0:
+            raise WaveformError(f"positive_share: got {self.positive_share:g}, expected a value in (0, 1)")
+        self._check_common()
+
+    def transitions(self):
+        V, d, P = self.V, self.duty, self.positive_share
+        if d >= 1.0:
+            return [(0.0, -V, V), (P, V, -V)]
+        r = self.ramp_time(V)        # a switch between 0 and +-V
+        e = P + d * (1.0 - P)        # end of the negative pulse
+        tr = []
+        # a 0 V gap shorter than its two half ramps: one inversion through 0, centred on the gap
+        if (1.0 - d) * (1.0 - P) * self.period < r:
+            tr.append((0.5 * (e + 1.0) - 1.0, -V, V))
+        else:
+            tr += [(0.0, 0.0, V), (e, -V, 0.0)]
+        if (1.0 - d) * P * self.period < r:
+            tr.append((0.5 * (d * P + P), V, -V))
+        else:
+            tr += [(d * P, V, 0.0), (P, 0.0, -V)]
+        return sorted(tr)
 
 
 @dataclass
-class Unipolar(_Square):
-    """Unipolar pulse train: V for duty of each period, then 0 V."""
+class Unipolar(_Periodic):
+    """Unipolar pulse train: V for `duty` of each period, then 0 V (`slew_rate`,
+    `phase`: as for Bipolar)."""
 
     V: float
     frequency: float
     duty: float = 0.5
+    slew_rate: float | None = None
+    phase: float | str = 0.0
 
-    def piecewise(self, duration):
-        return _square(duration, 1.0 / self.frequency, [(self.duty, self.V), (1 - self.duty, 0.0)])
+    def __post_init__(self):
+        self._check_common()
+
+    def transitions(self):
+        if self.duty >= 1.0:
+            return [(0.0, self.V, self.V)]      # always on
+        return [(0.0, 0.0, self.V), (self.duty, self.V, 0.0)]
 
 
 @dataclass
@@ -270,13 +415,21 @@ class Stage:
 
 @dataclass
 class Protocol:
-    """Stages applied one after the other, time 0 at the start of the first."""
+    """Stages applied one after the other, time 0 at the start of the first; `load`
+    (optional): the load that goes with the drive (a protocol file's [load]), used by
+    simulate when no load is given there.
+
+    Protocol files (README, 'Protocol file'): Protocol.from_toml(text or path),
+    protocol.to_toml(), protocol.save(path)."""
 
     stages: list = field(default_factory=list)
+    load: Load | None = None
 
     def __post_init__(self):
         if not self.stages:
             raise WaveformError("protocol: needs at least one stage")
+        if self.load is not None and not isinstance(self.load, Load):
+            self.load = Load(self.load)
         for s in self.stages:
             s.duration = _finite(f"duration of stage {s.label or '?'}", s.duration, 0.0, lo_incl=False,
                                  hi=MAX_DURATION)
@@ -311,6 +464,31 @@ class Protocol:
 
     def voltage(self, t):
         return self.piecewise()(t)
+
+    # protocol files ------------------------------------------------------------
+    def to_toml(self, header=None) -> str:
+        """The protocol-file text (every number exact; `header`: comment lines first)."""
+        from .protocol_file import to_toml
+        return to_toml(self, header)
+
+    def save(self, path, header=None) -> list:
+        """Write a protocol file (long sampled signals go to CSVs beside it); returns the
+        paths written."""
+        from .protocol_file import save
+        return save(self, path, header)
+
+    @classmethod
+    def from_toml(cls, source, folder=None) -> "Protocol":
+        """A protocol from a protocol file: `source` is a path (str or Path) to one, or
+        its TOML text (sampled signals' files then relative to `folder`, default the
+        current folder)."""
+        import os
+
+        from . import protocol_file
+        if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source
+                                               and "[[stage]]" not in source):
+            return protocol_file.load(source)
+        return protocol_file.from_toml(source, folder)
 
     # constructors --------------------------------------------------------------
     @classmethod

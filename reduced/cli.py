@@ -12,6 +12,7 @@ import sys
 import numpy as np
 
 from dfa_model import cli as base
+from dfa_model.cli import json_safe
 from dfa_model.fileio import check_writable
 
 
@@ -28,12 +29,12 @@ def register(sub) -> None:
 
     pc = sub.add_parser("compare", help="run the full model and a surrogate on one protocol; errors and speed-up")
     pc.add_argument("model", metavar="MODEL", help="a surrogate file written by dfa reduce")
-    base._add_protocol_flags(pc)
+    base._add_protocol_flags(pc, protocol_file=True)
     pc.add_argument("--plot", metavar="FILE.png", help="both strokes, the error below")
     pc.add_argument("--json", action="store_true", help="print the comparison as one JSON object")
     pc.set_defaults(func=cmd_compare)
 
-    from .design import add_design_parser
+    from .design_cli import add_design_parser
     from .hold_cli import add_hold_parser
     add_design_parser(sub)
     add_hold_parser(sub)
@@ -59,30 +60,14 @@ def cmd_reduce(args) -> int:
     return 0
 
 
-def json_safe(v):
-    """v for json.dumps: non-finite numbers become null (JSON has no NaN or Infinity),
-    NumPy scalars plain Python ones; dicts recursively. One cleaner for every
-    subcommand's --json."""
-    if isinstance(v, dict):
-        return {k: json_safe(x) for k, x in v.items()}
-    if isinstance(v, (float, np.floating)):
-        v = float(v)
-        return v if math.isfinite(v) else None
-    if isinstance(v, np.bool_):
-        return bool(v)
-    return v
-
-
 def cmd_compare(args) -> int:
     from .compare import KEYS, compare, plot
     from .surrogate import load
-    if args.duration is None:
-        raise base.CLIError("--duration: required (seconds of the hold stage, after any reset)")
     s = load(args.model)
     proto = base._protocol(args)
     if args.plot:
         check_writable("--plot", args.plot, base.PLOT_FORMATS)
-    row = compare(s, proto, args.force)
+    row = compare(s, proto, base._load(args, proto))
     if args.plot:
         plot(row, args.plot)
     out = {k: json_safe(row[k]) for k in KEYS}
@@ -97,7 +82,8 @@ def cmd_compare(args) -> int:
     print(f"unzipping speed    full {mm(out['unzipping_speed_full'], 1e6)} um/s, reduced "
           f"{mm(out['unzipping_speed_reduced'], 1e6)} um/s")
     print(f"ripple             full {mm(out['ripple_full'])} mm, reduced {mm(out['ripple_reduced'])} mm")
-    print(f"drift (lost)       full {mm(out['drift_full'])} mm, reduced {mm(out['drift_reduced'])} mm")
+    print(f"drift              full {mm(out['drift_full'])} mm, reduced {mm(out['drift_reduced'])} mm (stroke lost "
+          f"against the uncharged static stroke)")
     print(f"wall time          full {out['wall_time_full'] * 1e3:.2f} ms, reduced "
           f"{out['wall_time_reduced'] * 1e3:.3f} ms: {out['speedup']:.0f}x ({out['states']} states)")
     return 0

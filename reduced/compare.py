@@ -9,12 +9,12 @@ Definitions (one implementation, used by `dfa compare`, the fitting and the repo
                       the highest period's peak to the last period's, hold_speed): the
                       stroke itself swings every period, and with dead time drops to 0,
                       so its peak-to-end drop would measure the ripple's phase
-  ripple_*            peak-to-peak stroke per period, mean of the last 5 periods (m);
-                      None for DC
-  drift_*             stroke lost by the end relative to the uncharged static stroke
-                      (dfa_model.statics.equilibrium_stroke at the amplitude and load):
-                      x_static - (mean stroke over the last period, or the final stroke
-                      for DC) (m)
+  ripple_*            peak-to-peak stroke over the last period (m; StrokeMetrics.ripple);
+                      None when the last stage is not periodic
+  drift_*             stroke lost over the run (m, positive when lost; StrokeMetrics.drift):
+                      the uncharged static stroke at the last stage's amplitude and the
+                      final load, minus the mean stroke over the last period (the final
+                      stroke when the last stage is not periodic)
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ import numpy as np
 
 from dfa_model import PhysicsWarning, simulate
 from dfa_model.metrics import cycles
-from dfa_model.statics import equilibrium_stroke
+from dfa_model.solver import protocol_load
 from dfa_model.waveforms import Bipolar, Unipolar
 
 KEYS = ("stroke_rms_error", "stroke_range", "relative_rms_error", "unzipping_speed_full", "unzipping_speed_reduced",
@@ -76,26 +76,19 @@ def hold_speed(res, protocol) -> float:
     return 0.0 if k == len(c) - 1 else float((c[k, 3] - c[-1, 3]) / (c[-1, 0] - c[k, 0]))
 
 
-def _metrics(res, params, protocol, F, period):
-    span = hold_span(protocol)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PhysicsWarning)
-        x_static = equilibrium_stroke(params, protocol.amplitude, F, warn=False)
-    if period is not None:
-        ripple = res.ripple(period)
-        n = int(math.floor((span[1] - span[0]) / period + 1e-9))
-        end = res.trace.mean(span[0] + (n - 1) * period, span[0] + n * period) if n >= 1 else res.final_stroke
-        ripple = None if ripple != ripple else float(ripple)
-    else:
-        ripple, end = None, res.final_stroke
-    return hold_speed(res, protocol), ripple, float(x_static - end)
+def _metrics(res, protocol):
+    """(unzipping speed over the hold, ripple or None, drift) of a result (module docstring)."""
+    T = res.period
+    ripple = res.ripple() if T is not None and T <= res.trace.t1 - res.trace.t0 else None
+    return hold_speed(res, protocol), ripple, float(res.drift)
 
 
-def compare(surrogate, protocol, load=0.0, full_result=None, rtol=1e-4) -> dict:
+def compare(surrogate, protocol, load=None, full_result=None, rtol=1e-4) -> dict:
     """Run the full model (the surrogate's actuator) and the surrogate on `protocol`
-    with a constant load (N); returns the KEYS plus the two results under 'full' and
-    'reduced'. Wall times are each call's own, measured the same way."""
-    F = float(load)
+    with `load` (a Load or a constant force in N; default the protocol's own, else 0);
+    returns the KEYS plus the two results under 'full' and 'reduced'. Wall times are
+    each call's own, measured the same way."""
+    F = protocol_load(protocol, load)
     p = surrogate.params
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicsWarning)
@@ -107,9 +100,9 @@ def compare(surrogate, protocol, load=0.0, full_result=None, rtol=1e-4) -> dict:
     wall_red = time.perf_counter() - t0
     err = rms_difference(red.trace, full.trace)
     rng = float(full.trace.max() - full.trace.min())
-    period = hold_period(protocol)
-    us_f, rp_f, dr_f = _metrics(full, p, protocol, F, period)
-    us_r, rp_r, dr_r = _metrics(red, p, protocol, F, period)
+    us_f, rp_f, dr_f = _metrics(full, protocol)
+    red._x_static = full.x_static      # the same actuator's statics: computed once
+    us_r, rp_r, dr_r = _metrics(red, protocol)
     out = {"stroke_rms_error": err, "stroke_range": rng, "relative_rms_error": err / rng if rng > 0 else None,
            "unzipping_speed_full": us_f, "unzipping_speed_reduced": us_r, "ripple_full": rp_f,
            "ripple_reduced": rp_r, "drift_full": dr_f, "drift_reduced": dr_r, "wall_time_full": wall_full,

@@ -8,7 +8,7 @@ import sys
 from dfa_model import cli as base
 from dfa_model.fileio import check_writable
 
-from .cli import json_safe
+from dfa_model.cli import json_safe
 
 
 def add_hold_parser(subparsers):

@@ -32,6 +32,7 @@ import numpy as np
 from dfa_model import limits
 from dfa_model.parameters import Parameters
 from dfa_model.results import StrokeMetrics
+from dfa_model.solver import protocol_load
 from dfa_model.trace import StrokeTrace
 from dfa_model.waveforms import DC, Bipolar, Load, Protocol, Unipolar, merge
 
@@ -53,8 +54,10 @@ class SurrogateResult(StrokeMetrics):
     (StrokeMetrics: unzipping speed, static stroke, ripple, drift...). `y_end`: the final
     kernel state [x, v, q_z, q_d, V, F] (to continue from, as y0)."""
 
-    def __init__(self, surrogate, protocol, rec, wall_time, steps, y_end):
+    def __init__(self, surrogate, protocol, rec, wall_time, steps, y_end, load=None):
         self.surrogate = surrogate
+        self.params = surrogate.params
+        self.load = load if load is not None else Load(0.0)
         self.protocol = protocol
         self.rec = rec
         self.wall_time = wall_time
@@ -140,7 +143,7 @@ class Surrogate:
         return np.array([self.x_e, self.x_e * 100.0, qs, qs, 1.0, 1.0])
 
     # ------------------------------------------------------------------ fast path
-    def simulate(self, protocol, load=0.0, duration=None, *, rtol=1e-4, y0=None, max_steps=limits.MAX_STEPS,
+    def simulate(self, protocol, load=None, duration=None, *, rtol=1e-4, y0=None, max_steps=limits.MAX_STEPS,
                  averaged=None) -> SurrogateResult:
         """Run a protocol on the compiled path (kernel.py). `protocol` and `load` as in
         dfa_model.simulate. `y0`: initial state by name ({'x': ..., 'q_z': ...}) or a
@@ -151,8 +154,7 @@ class Surrogate:
                 raise ValueError("duration: required when the protocol is a plain voltage or waveform")
             protocol = Protocol.dc(protocol, duration) if isinstance(protocol, (int, float)) else \
                 Protocol.single(protocol, duration)
-        if not isinstance(load, Load):
-            load = Load(load)
+        load = protocol_load(protocol, load)
         if not (isinstance(rtol, (int, float)) and 1e-10 <= rtol <= 0.1):
             raise ValueError(f"rtol: got {rtol!r}, expected a number in [1e-10, 0.1]")
         t0 = time.perf_counter()
@@ -160,7 +162,7 @@ class Surrogate:
         w2 = v0 * v0 if averaged is None else np.asarray(averaged, float)
         rec, steps, y_end = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps, averaged is not None,
                                       load.k_load)
-        return SurrogateResult(self, protocol, rec, time.perf_counter() - t0, steps, y_end)
+        return SurrogateResult(self, protocol, rec, time.perf_counter() - t0, steps, y_end, load)
 
     def _segments(self, protocol, load):
         """merge(protocol, load): the kernel's input segments. Building them costs about

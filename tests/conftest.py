@@ -1,3 +1,5 @@
+import os
+import tempfile
 import warnings
 
 import pytest
@@ -19,6 +21,11 @@ def vshape81():
 @pytest.fixture(scope="session")
 def peano():
     return preset("peano-fig10")
+
+
+# surrogates `dfa design`/`dfa hold` fit and cache (reduced/model_cache.py): one cache for the
+# session, never the user's (commands in subprocesses inherit it)
+os.environ["DFA_SURROGATE_CACHE"] = tempfile.mkdtemp(prefix="dfa_surrogates_")
 
 
 @pytest.fixture(autouse=True)

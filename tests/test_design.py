@@ -28,21 +28,22 @@ def surrogate(params):
 
 
 # ---------------------------------------------------------------- (a) averaged inputs
-@pytest.mark.parametrize("f, duty, t_ramp", [(5.0, 0.5, 0.0), (5.0, 0.5, 2e-3), (37.0, 0.3, 1e-3),
-                                             (0.7, 0.7, 0.05), (100.0, 0.4, 4e-3)])
-def test_averaged_inputs_match_the_waveform(f, duty, t_ramp):
-    vm, w = averaged.averaged_inputs(V, f, duty, t_ramp)
-    assert vm == pytest.approx((2 * duty - 1) * V, abs=1e-9 * V)
+@pytest.mark.parametrize("f, share, t_ramp", [(5.0, 0.5, 0.0), (5.0, 0.5, 2e-3), (37.0, 0.3, 1e-3),
+                                              (0.7, 0.7, 0.05), (100.0, 0.4, 4e-3)])
+def test_averaged_inputs_match_the_waveform(f, share, t_ramp):
+    vm, w = averaged.averaged_inputs(V, f, share, t_ramp)
+    assert vm == pytest.approx((2 * share - 1) * V, abs=1e-9 * V)
     assert w == pytest.approx(V * V * (1 - 4 / 3 * t_ramp * f), rel=1e-12)
     # numerical integration of the waveform itself over 3 periods (dense trapezoid rule)
     T = 1 / f
-    wave = averaged.BipolarTrapezoid(V, f, duty, t_ramp)
+    wave = averaged.drive(V, f, share, t_ramp, balanced=False)
+    assert wave.duty == 1.0            # the design's drive: full-duty inversion (Bipolar's duty)
     t = np.linspace(0.0, 3 * T, 600_001)
     v = Protocol([Stage(wave, 3 * T)]).voltage(t)
     assert np.trapezoid(v, t) / (3 * T) == pytest.approx(vm, abs=2e-5 * V)
     assert np.trapezoid(v * v, t) / (3 * T) == pytest.approx(w, rel=2e-5)
-    # the share of the period at V >= 0 is the duty (ramps centred on the switching instants)
-    assert np.mean(v[:-1] >= 0) == pytest.approx(duty, abs=2e-4)
+    # the share of the period at V >= 0 is positive_share (ramps centred on the switching instants)
+    assert np.mean(v[:-1] >= 0) == pytest.approx(share, abs=2e-4)
     assert np.max(v) == pytest.approx(V) and np.min(v) == pytest.approx(-V)
 
 
@@ -56,18 +57,18 @@ def test_ramp_time_and_limits():
 
 
 # ---------------------------------------------------------------- (b) averaged vs real
-@pytest.mark.parametrize("duty", [0.5, 0.6])
-def test_averaged_model_matches_the_real_waveform(surrogate, params, duty):
+@pytest.mark.parametrize("share", [0.5, 0.6])
+def test_averaged_model_matches_the_real_waveform(surrogate, params, share):
     f, horizon, t_ramp = 5.0, 60.0, 2e-4
-    avg = averaged.simulate_averaged(surrogate, V, F, f, duty, horizon, t_ramp)
-    real = surrogate.simulate(Protocol([Stage(averaged.drive(V, f, duty, t_ramp), horizon, "hold")]), F,
+    avg = averaged.simulate_averaged(surrogate, V, F, f, share, horizon, t_ramp)
+    real = surrogate.simulate(Protocol([Stage(averaged.drive(V, f, share, t_ramp), horizon, "hold")]), F,
                               rtol=1e-6)
     rip, xm = averaged.last_period(real, 1 / f)
     stroke = avg.x_static
     assert abs(avg.x_mean_end - xm) < 0.02 * stroke
     assert avg.ripple == pytest.approx(rip, rel=0.05)
     assert avg.drift == pytest.approx(avg.x_static - xm, abs=0.02 * stroke)
-    if duty != 0.5:      # the case is not trivial: the charge drifts the stroke
+    if share != 0.5:      # the case is not trivial: the charge drifts the stroke
         assert avg.drift > 0.02 * stroke
     # the slow run spans the horizon in few steps (the point of averaging)
     assert avg.slow.n_steps < 200
@@ -122,10 +123,15 @@ def test_recommended_point_meets_spec_on_full_model(design):
     assert d.verified is not None and d.verified["meets"]
     assert d.verified["ripple"] <= LIMITS["max_ripple"] and abs(d.verified["drift"]) <= LIMITS["max_drift"]
     assert d.ripple <= LIMITS["max_ripple"] and abs(d.drift) <= LIMITS["max_drift"]
-    assert d.power == pytest.approx(4 * d.frequency * d.capacitance * V * V)
+    assert d.power["hard_switched_dissipation"] == pytest.approx(4 * d.frequency * d.capacitance * V * V)
+    # the drive as designed returns most of each inversion's charge to the source: its input
+    # power is far below what a hard-switched source dissipates, and positive
+    assert 0 < d.power["input"] < 0.1 * d.power["hard_switched_dissipation"]
+    assert d.power["input"] == d.verified["input_power"]
     assert 1e-10 < d.capacitance < 1e-8
     for k in ("f_min", "f_max", "frequency", "duty", "power", "ripple", "drift", "verified", "feasible", "reason"):
         assert d[k] is getattr(d, k)
+    assert d.duty == 1.0 and d.positive_share == 0.5 and d.phase == pytest.approx(0.25)
 
 
 def test_recommendation_the_full_model_rejects_moves_into_the_window(surrogate, params):
@@ -140,11 +146,11 @@ def test_recommendation_the_full_model_rejects_moves_into_the_window(surrogate, 
     assert d.frequency > 1.25 * d.f_min * 1.01 and d.frequency <= d.f_max
     assert d.verified["frequency"] == d.frequency
     # the reported check is the full model's at the moved frequency
-    _, rf, df = averaged.simulate_full(params, V, F, d.frequency, d.duty, lim["horizon"], d.t_ramp,
+    _, rf, df = averaged.simulate_full(params, V, F, d.frequency, d.positive_share, lim["horizon"], d.t_ramp,
                                        x_static=d.x_static)
     assert (rf, df) == pytest.approx((d.verified["ripple"], d.verified["drift"]), rel=1e-9)
     assert rf <= lim["max_ripple"] and abs(df) <= lim["max_drift"]
-    _, rf0, df0 = averaged.simulate_full(params, V, F, 1.25 * d.f_min, d.duty, lim["horizon"], d.t_ramp,
+    _, rf0, df0 = averaged.simulate_full(params, V, F, 1.25 * d.f_min, d.positive_share, lim["horizon"], d.t_ramp,
                                          x_static=d.x_static)
     assert rf0 > lim["max_ripple"] or abs(df0) > lim["max_drift"]
 
@@ -162,7 +168,8 @@ def test_infeasible_spec_says_why(surrogate):
     ({"F": "x"}, "F"), ({"max_ripple": 0.0}, "max_ripple"), ({"max_ripple": -1e-6}, "max_ripple"),
     ({"max_drift": 0.0}, "max_drift"), ({"horizon": 0.0}, "horizon"), ({"horizon": float("inf")}, "horizon"),
     ({"slew_rate": 0.0}, "slew_rate"), ({"slew_rate": -5.0}, "slew_rate"), ({"current_limit": 0.0}, "current_limit"),
-    ({"duty": 0.2}, "duty"), ({"duty": 0.75}, "duty"), ({"f_range": (10.0, 1.0)}, "f_range")])
+    ({"positive_share": 0.2}, "positive_share"), ({"positive_share": 0.75}, "positive_share"),
+    ({"f_range": (10.0, 1.0)}, "f_range")])
 def test_bad_arguments_name_the_argument(surrogate, kw, name):
     args = {"V": V, "F": F, "max_ripple": 1e-4, "max_drift": 1e-5, "horizon": 10.0}
     args.update(kw)
@@ -173,12 +180,12 @@ def test_bad_arguments_name_the_argument(surrogate, kw, name):
 # ---------------------------------------------------------------- dfa design
 def test_design_command_prints_json_last(capsys):
     from dfa_model import cli as base
-    from reduced.design import add_design_parser
+    from reduced.design_cli import add_design_parser
     ap = base._Parser(prog="dfa")
     add_design_parser(ap.add_subparsers(dest="command", parser_class=base._Parser))
     args = ap.parse_args(["design", "--preset", "vshape-table1", "--voltage", "6000", "--force", "5",
                           "--max-ripple", "120e-6", "--max-drift", "15e-6", "--horizon", "10",
-                          "--slew-rate", str(2 * V / T_RAMP), "--json"])
+                          "--slew-rate", str(2 * V / T_RAMP), "--json", "--quiet"])
     assert args.func(args) == 0
     lines = capsys.readouterr().out.strip().splitlines()
     out = json.loads(lines[-1])

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from dfa_model import Bipolar, Protocol, simulate
-from dfa_model.metrics import cycles, drift, ripple
+from dfa_model.metrics import cycles, drift_rate, last_periods
 from dfa_model.trace import GAMMA, StrokeTrace
 
 
@@ -93,10 +93,10 @@ def test_ripple_is_resolved_by_the_solver_steps(vshape81):
     r = simulate(vshape81, proto, load=5.0, rtol=1e-6)
     fine = np.linspace(0, 2, 200001)
     ref = simulate(vshape81, proto, load=5.0, t_eval=fine, rtol=1e-8)
-    ref_ripple = ripple(StrokeTrace.from_samples(ref.t, ref.x), 0.2, 0.0, 2.0)
-    assert abs(r.ripple(0.2) / ref_ripple - 1) < 0.05, (r.ripple(0.2), ref_ripple)
-    at_steps = ripple(StrokeTrace.from_samples(r.t, r.x), 0.2, 0.0, 2.0)
-    assert at_steps < r.ripple(0.2)
+    ref_ripple = last_periods(StrokeTrace.from_samples(ref.t, ref.x), 0.2, 10)[0]
+    assert abs(r.ripple(0.2, last=10) / ref_ripple - 1) < 0.05, (r.ripple(0.2, last=10), ref_ripple)
+    at_steps = last_periods(StrokeTrace.from_samples(r.t, r.x), 0.2, 10)[0]
+    assert at_steps < r.ripple(0.2, last=10)
 
 
 def test_cycle_metrics_are_linear_in_the_run_length():
@@ -108,5 +108,5 @@ def test_cycle_metrics_are_linear_in_the_run_length():
     c = cycles(tr, 1.0, 0.0, float(n))
     assert c.shape == (n, 4)
     assert np.allclose(c[:, 3] - c[:, 2], 2.0, atol=0.03)
-    assert abs(drift(tr, 1.0, 0.0, float(n)) - 1e-3) < 1e-9
-    assert abs(ripple(tr, 1.0, 0.0, float(n)) - 2.0) < 0.03
+    assert abs(drift_rate(tr, 1.0, 0.0, float(n)) + 1e-3) < 1e-9     # rising: stroke gained, a negative loss
+    assert abs(last_periods(tr, 1.0, n)[0] - 2.0) < 0.03

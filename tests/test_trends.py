@@ -14,7 +14,7 @@ def test_waveforms_fig4a(vshape81):
     uni = simulate(p, Protocol.single(Unipolar(6000, 1.0, 0.5), 20.0), load=5.0)
     assert dc.final_stroke < 0.6 * dc.x.max()
     assert abs(bip.x[-1] / bip.x[t > 0.5][0] - 1) < 1e-3
-    assert abs(bip.drift(1 / 30.0, "hold")) < 1e-3 * dc.unzipping_speed
+    assert abs(bip.drift_rate(1 / 30.0, "hold")) < 1e-3 * dc.unzipping_speed
     peaks = [uni.x[(uni.t >= k) & (uni.t < k + 0.5)].max() for k in range(0, 20)]
     assert all(b < a for a, b in zip(peaks[1:], peaks[2:]))
     assert peaks[-1] < 0.85 * peaks[1]      # measured: 26 % lower after 20 cycles
