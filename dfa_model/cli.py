@@ -423,4 +423,7 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # `python -m dfa_model.cli`: run the package module's main, not this __main__ copy of it,
+    # so that the plugins' CLIError (raised from dfa_model.cli) is the one main catches
+    from dfa_model.cli import main as _main
+    sys.exit(_main())

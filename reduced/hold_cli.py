@@ -10,6 +10,8 @@ from dfa_model.fileio import check_writable
 
 from dfa_model.cli import json_safe
 
+from .design_cli import add_model_flags, params_and_surrogate
+
 
 def add_hold_parser(subparsers):
     ph = subparsers.add_parser("hold", help="hold a commanded stroke: PI loop tuned on the surrogate, checked on the "
@@ -22,7 +24,8 @@ def add_hold_parser(subparsers):
                     help="length of the hold, s (default 300)")
     ph.add_argument("--frequency", type=base._number(0.0, 1e3, lo_open=True), default=10.0, metavar="HZ",
                     help="polarity-inversion frequency of the drive, Hz (default 10)")
-    ph.add_argument("--family", choices=["charge", "lumped"], default="charge", help="surrogate tuned on")
+    add_model_flags(ph)
+    ph.add_argument("--quiet", action="store_true", help="no progress bar when a surrogate is fitted")
     ph.add_argument("--plot", metavar="FILE.png", help="the three strokes and the loop's amplitude")
     ph.add_argument("--json", action="store_true", help="print controller and metrics as one JSON object (last line)")
     ph.set_defaults(func=cmd_hold)
@@ -30,30 +33,35 @@ def add_hold_parser(subparsers):
 
 
 def cmd_hold(args) -> int:
-    from .families import build
     from .frozen import as_model
     from .holding import compare_hold, tune_hold_controller
-    p = base._params(args)
     if args.plot:
         check_writable("--plot", args.plot, base.PLOT_FORMATS)
-    model = as_model(p)      # the stroke is checked before the surrogate's maps are built
-    x_e = model.kin.x_e
-    if args.stroke >= x_e:
-        raise base.CLIError(f"--stroke: got {args.stroke:g} m, expected a value below the full stroke x_e = {x_e:g} m")
-    s = build(model, args.family)
+    def checked(p):
+        model = as_model(p)
+        if args.stroke >= model.kin.x_e:
+            raise base.CLIError(f"--stroke: got {args.stroke:g} m, expected a value below the full stroke x_e = "
+                                f"{model.kin.x_e:g} m")
+        return model
+    if args.preset or args.params:
+        checked(base._params(args))        # before a surrogate is fitted
+    p, s, note = params_and_surrogate(args, lambda text: print(f"dfa: {text}", file=sys.stderr))
+    model = checked(p)
     try:
         c = tune_hold_controller(s, args.stroke, args.force, frequency=args.frequency)
     except ValueError as exc:
         raise base.CLIError(str(exc)) from None
-    print(f"PI loop tuned on the {args.family} surrogate at {args.stroke * 1e3:g} mm, {args.force:g} N: "
+    print(f"PI loop tuned on the {s.family} surrogate ({note}) at {args.stroke * 1e3:g} mm, {args.force:g} N: "
           f"kp {c.kp:.4g} V/m, ki {c.ki:.4g} V/(m s), feedforward {c.v_ff:.0f} V, inversion {c.frequency:g} Hz; "
           f"phase margin {c.phase_margin:.0f} deg, crossover {c.gain_crossover:.3g} rad/s")
     cmp = compare_hold(model, c, args.duration)
     print(f"full model, {args.duration:g} s hold (deviation from the commanded stroke after 2 s):")
-    print(f"  {'scheme':16s} {'rms um':>9s} {'max um':>9s} {'final um':>9s} {'mean |V|':>9s} {'power mW':>9s}")
+    print(f"  {'scheme':16s} {'rms um':>9s} {'max um':>9s} {'drift um':>9s} {'mean |V|':>9s} {'P_hs mW':>9s}")
     for name, m in cmp["metrics"].items():
-        print(f"  {name:16s} {m['rms_dev'] * 1e6:9.2f} {m['max_dev'] * 1e6:9.2f} {m['final_error'] * 1e6:9.2f} "
-              f"{m['mean_abs_V']:9.0f} {m['power'] * 1e3:9.3g}")
+        print(f"  {name:16s} {m['rms_dev'] * 1e6:9.2f} {m['max_dev'] * 1e6:9.2f} {m['drift'] * 1e6:9.2f} "
+              f"{m['mean_abs_V']:9.0f} {m['hard_switched_power'] * 1e3:9.3g}")
+    print("  (drift: stroke lost against the commanded stroke over the last inversion period, positive when lost; "
+          "P_hs: what a hard-switched source spends)")
     if args.plot:
         _plot(cmp, args.plot)
         print(f"wrote {args.plot}", file=sys.stderr)

@@ -237,11 +237,13 @@ class HoldResult:
     C: np.ndarray
     wall_time: float
 
-    def metrics(self, x_ref: float, t_skip: float = 2.0, t_final: float = 1.0) -> dict:
+    def metrics(self, x_ref: float, t_skip: float = 2.0, t_final: float = 1.0, period: float | None = None) -> dict:
         """Deviation from x_ref after t_skip (m): rms, max |.|, final (mean over the last
-        t_final s, which averages the inversion ripple); mean |V| (V); drive power proxy
-        (W): mean V I (conduction, recorded current) plus the charge pushed at every
-        voltage jump, C V_new (V_new - V_old) each, over the window."""
+        t_final s, which averages the inversion ripple); drift: the stroke lost against
+        x_ref (m, positive when lost: x_ref minus the mean stroke over the last `period`,
+        the inversion's, else t_final; README, 'Words with one meaning'); mean |V| (V);
+        drive power proxy (W): mean V I (conduction, recorded current) plus the charge
+        pushed at every voltage jump, C V_new (V_new - V_old) each, over the window."""
         w = self.t >= t_skip - 1e-12
         d = self.x[w] - x_ref
         T = self.t[-1] - self.t[w][0]
@@ -250,9 +252,11 @@ class HoldResult:
         idx = np.nonzero(w)[0]
         jumps = [k for k in idx[1:-1] if self.V[k] != self.V[k - 1]]
         e_jump = sum(self.C[k] * self.V[k] * (self.V[k] - self.V[k - 1]) for k in jumps)
+        last = self.t >= self.t[-1] - (period or t_final) - 1e-12
         return {"rms_dev": float(np.sqrt(np.mean(d * d))), "max_dev": float(np.max(np.abs(d))),
-                "final_error": float(np.mean(self.x[fin]) - x_ref), "mean_abs_V": float(np.mean(np.abs(Vw))),
-                "power": float(np.mean(Vw * Iw) + e_jump / T), "wall_time": self.wall_time}
+                "final_error": float(np.mean(self.x[fin]) - x_ref), "drift": float(x_ref - np.mean(self.x[last][:-1])),
+                "mean_abs_V": float(np.mean(np.abs(Vw))),
+                "hard_switched_power": float(np.mean(Vw * Iw) + e_jump / T), "wall_time": self.wall_time}
 
 
 def _run_loop(step, read, law, mode, frequency, F, duration, dt, label) -> HoldResult:
@@ -350,7 +354,7 @@ def compare_hold(params_or_model, controller: HoldController, duration: float = 
         dc = dataclasses.replace(controller, mode="dc")
         runs["DC loop"] = simulate_hold(model, dc, x_ref, F, duration, label="DC amplitude loop")
     return {"v_open": v_open, "x_ref": x_ref, "runs": runs,
-            "metrics": {k: r.metrics(x_ref, t_skip) for k, r in runs.items()}}
+            "metrics": {k: r.metrics(x_ref, t_skip, period=1.0 / controller.frequency) for k, r in runs.items()}}
 
 
 # ---------------------------------------------------------------------- FMU
