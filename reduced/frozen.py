@@ -33,6 +33,13 @@ def as_model(params) -> DFAModel:
     if model.params.scheme == "paper":
         raise ValueError("scheme: the surrogates are fitted to the 'continuum' or 'continuum-p0' schemes, "
                          "not 'paper'")
+    # one line naming the key, not a shape error from deep inside the maps
+    if model.polarized:
+        raise ValueError(f"chi_p: the surrogates do not carry the polarization branch (chi_p = {model.params.chi_p:g}): "
+                         "its second state per material point has no reduced form here yet")
+    if model.series:
+        raise ValueError(f"R_s: the surrogates do not carry a series resistance (R_s = {model.params.R_s:g} ohm): the "
+                         "device voltage behind it has no reduced state here yet")
     return model
 
 
