@@ -261,22 +261,34 @@ def cmd_fmu_build(args):
         from fmu import BuildError, build_fmu
     except ImportError as exc:
         raise CLIError(f"the fmu package is not available ({exc}); install with pip install 'dfa-toolkit[fmu]'")
+    if args.drive is not None and not args.system:
+        raise CLIError("--drive: only with --system (the drive FMU is part of the system; the actuator FMU alone "
+                       "takes its voltage as an input)")
     if not args.preset and not args.params:
         args.preset = "vshape-table1"
     p = _params(args)
     src = args.params or "preset " + args.preset
+    kwargs = {}
     if args.system:
         from fmu.ssp import build_system as build
-        default, what = "DFASystem.ssp", (f"SSP 1.0: the actuator with parameters from {src}, the drive electronics "
-                                          f"and the load, FMI 2.0 co-simulation FMUs; run it with "
-                                          f"fmpy.ssp.simulate.simulate_ssp or OMSimulator")
+        drive, load = "the drive electronics", "the load"
+        if args.drive is not None:
+            from .protocol_file import load as load_protocol
+            proto = load_protocol(args.drive)       # a bad file: its own one-line WaveformError (exit 2)
+            kwargs = {"drive": proto, "drive_source": os.path.basename(args.drive)}
+            drive = f"the drive electronics playing {args.drive} for {proto.duration:g} s"
+            if proto.load is not None and isinstance(proto.load.F, (int, float)):   # else build refuses it
+                load = f"the load weighing its [load] force ({proto.load.F:g} N)"
+        default, what = "DFASystem.ssp", (f"SSP 1.0: the actuator with parameters from {src}, {drive} "
+                                          f"and {load}, FMI 2.0 co-simulation FMUs; run it with "
+                                          f"fmpy.ssp.simulation.simulate_ssp or OMSimulator")
     else:
         build = build_fmu
         default, what = "DFAActuator.fmu", f"FMI 2.0 co-simulation; inputs voltage, force; parameters from {src}"
     out = args.out or default
     check_writable("--out", out, (default.rpartition(".")[2],))
     try:
-        out = build(p, out)
+        out = build(p, out, **kwargs)
     except BuildError as exc:
         raise CLIError(str(exc)) from None
     print(f"wrote {out} ({what})")
@@ -367,6 +379,8 @@ def build_parser(plugins=True):
     pb.add_argument("--out", metavar="FILE.fmu", help="default DFAActuator.fmu (with --system: DFASystem.ssp)")
     pb.add_argument("--system", action="store_true",
                     help="build the actuator + drive electronics + load co-simulation as an SSP file")
+    pb.add_argument("--drive", metavar="DRIVE.toml",
+                    help="with --system: the drive FMU plays this protocol file, the load weighs its [load] force")
     pb.set_defaults(func=cmd_fmu_build)
     if plugins:
         _plugins(sub)

@@ -119,14 +119,32 @@ def bundle_model(dest: Path) -> None:
 COMPANIONS = {"drive": ("drive_electronics", "DriveElectronics"), "load": ("mass_spring_load", "MassSpringLoad")}
 
 
-def build_companion_fmu(kind: str, out: str | os.PathLike) -> Path:
-    """Build the drive-electronics ("drive") or mass-spring load ("load") FMU."""
+def build_companion_fmu(kind: str, out: str | os.PathLike, start: dict | None = None,
+                        files: dict | None = None) -> Path:
+    """Build the drive-electronics ("drive") or mass-spring load ("load") FMU.
+
+    `start`: parameter name -> start value. Written to resources/start_values.json,
+    which the slave applies at instantiation through its own checks: pythonfmu reads the
+    start values off an instance of the slave (made with the resources at hand), so the
+    model description states them and every instance starts from them, whatever the
+    master (fmpy's SSP master sets none). `files`: more resources, name -> bytes (the
+    drive's resources/drive_protocol.json). Neither given: the FMU as it always was."""
     if kind not in COMPANIONS:
         raise BuildError(f"kind: got {kind!r}, expected one of {', '.join(COMPANIONS)}")
     import importlib
+    import json
     name, cls = COMPANIONS[kind]
     module = importlib.import_module(f".{name}", __package__)
-    return _package(HERE / f"{name}.py", cls, out, [], units=module.UNITS)
+    with tempfile.TemporaryDirectory(prefix="dfa_fmu_") as tmp:
+        res = {**(files or {})}
+        if start:
+            res[module.START_FILE] = json.dumps(start, indent=1).encode()
+        for fname, data in res.items():
+            (Path(tmp) / fname).write_bytes(data)
+        try:
+            return _package(HERE / f"{name}.py", cls, out, [Path(tmp) / f for f in res], units=module.UNITS)
+        except ValueError as exc:      # the slave refused a start value or a resource
+            raise BuildError(f"{kind} FMU: {exc}") from None
 
 
 def _package(script: Path, cls: str, out, project_files, units: dict, serialize=False, beside=(), ranges=None,

@@ -7,14 +7,21 @@ position) moving as m x_m'' = k (x - x_m) - c x_m'. At rest F = m g. Integrated 
 semi-implicit Euler substeps. The force depends on the stroke, not on its rate: a
 rate coupling (a damper between actuator and mass) would enter the explicit exchange
 with gain c/dt and make the fixed-step co-simulation unstable.
+
+Start values the build chose (resources/start_values.json: name -> value; the system
+built with a drive's [load] force F starts with mass = F / G) are applied at
+instantiation through the same checks as a host's set.
 """
+import json
 import math
+import os
 
 from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Variability
 from pythonfmu.fmi2slave import Fmi2Slave
 from pythonfmu.variables import Real
 
 G = 9.81
+START_FILE = "start_values.json"         # start values chosen at build time (fmu/build.py writes it)
 PARAMS = {
     "mass": ("kg", "load mass", 0.51),
     "stiffness": ("N/m", "spring stiffness between actuator and mass", 2000.0),
@@ -46,6 +53,15 @@ class MassSpringLoad(Fmi2Slave):
             self.register_variable(Real(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                                         initial=Fmi2Initial.exact, description=f"{text} [{unit}]",
                                         setter=self._param_setter(name)))
+        path = os.path.join(self.resources, START_FILE) if self.resources else None
+        if path and os.path.exists(path):
+            with open(path, encoding="utf-8") as f:
+                start = json.load(f)
+            by_name = {v.name: v for v in self.vars.values()}
+            for name, value in start.items():
+                if name not in by_name or by_name[name].causality != Fmi2Causality.parameter:
+                    raise ValueError(f"resources/{START_FILE}: {name}: not a parameter of this FMU")
+                by_name[name].setter(value)
 
     def _param_setter(self, name):
         def put(value):
