@@ -47,7 +47,8 @@ def cmd_diagnose(args) -> int:
     report = write(D, args.out)
     print(f"{report['conclusion']}; baseline held-out RMSE "
           f"{_um(D.baseline.heldout_rmse)}, improved {_um(D.final.heldout_rmse) if D.kept else '-'}; "
-          f"wrote {args.out}/report.json, report.md")
+          f"wrote {args.out}/report.json, report.md, {report['improved_params']} (the improved model: "
+          f"dfa simulate --params {args.out}/{report['improved_params']}) and protocols/")
     return 0
 
 

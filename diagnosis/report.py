@@ -322,7 +322,10 @@ def to_markdown(D, report: dict, plots: dict) -> str:
         hidden = "-" if h["concealed"] is None else ("yes" if h["concealed"] else "no")
         L.append(f"| {h['voltage'] / 1e3:g} kV, {h['force']:g} N | {h['speed_measured'] * 1e6:.3g} | {sd} | "
                  f"{f(h['speed_error_baseline'])} | {f(h.get('speed_error_improved'))} | {hidden} |")
-    L += ["", "## Fitted parameters", "", "| parameter | nominal | fitted | standard error |", "|---|---|---|---|"]
+    L += ["", f"The improved model as a parameter file: [{report['improved_params']}]({report['improved_params']}) "
+          f"(`dfa simulate --params {report['improved_params']}`, `dfa reduce`, `dfa design`, `dfa hold`, "
+          f"`dfa fmu build`); each recording's drive as a protocol file in `protocols/`.",
+          "", "## Fitted parameters", "", "| parameter | nominal | fitted | standard error |", "|---|---|---|---|"]
     for k, v in D.final.values.items():
         L.append(f"| {k} | {getattr(D.dataset.params, k, '-')} | {v:.4g} | {D.final.stderr[k]:.2g} |")
     L += ["", "## Where the baseline misses", ""]
@@ -367,9 +370,13 @@ def to_markdown(D, report: dict, plots: dict) -> str:
 
 
 def write(D, out) -> dict:
+    from .improved import write_improved, write_protocols
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     report = to_json(D)
+    # the improved model as a parameter file, and each recording's drive as a protocol file
+    report["improved_params"] = write_improved(D, out)
+    report["protocols"] = write_protocols(D, out)
     write_text_atomic(out / "report.json", json.dumps(report, indent=1))
     plots = {}
     plot_residuals(D, out / "residuals.png")

@@ -8,7 +8,7 @@ then, each step taking the previous step's file:
     dfa diagnose data/ --out report/                          -> report/improved.toml
     dfa reduce --params report/improved.toml --out act.json   -> a fitted surrogate
     dfa design --params report/improved.toml --model act.json --voltage 6000 --force 5 \\
-               --max-ripple 120e-6 --max-drift 15e-6 --horizon 20 --slew-rate 4e7 \\
+               --max-ripple 110e-6 --max-drift 15e-6 --horizon 20 --slew-rate 4e7 \\
                --out drive.toml --plot design.png --json      -> the drive as a protocol file
     dfa simulate --params report/improved.toml --protocol drive.toml --json   (replay)
     dfa hold --params report/improved.toml --model act.json --stroke X --force 5 --json
@@ -37,8 +37,16 @@ from dfa_model.synthetic import Measurement, generate_dataset
 N = 21 if QUICK else 81
 K_TRUE = 300.0                 # N/m: the hidden physics
 V, F = 6000.0, 5.0
-SPEC = {"max_ripple": 120e-6, "max_drift": 15e-6, "horizon": 20.0, "slew_rate": 4e7}
-STEP = 1e-3                    # s: the co-simulation's communication step
+SPEC = {"max_ripple": 120e-6, "max_drift": 15e-6, "horizon": 6.0 if QUICK else 20.0, "slew_rate": 4e7}
+# the design holds its limits on the full model against a constant load; the system adds
+# what the design does not model - a mass on a spring as the load, and the exchange step
+# holding the drive's voltage - which cost up to ~8 um of ripple (measured: README, 'From
+# recordings to a drive'). So the drive is designed to 110 um to hold the system's 120 um.
+DESIGN_RIPPLE = 110e-6
+# s: the co-simulation's communication step. The drive FMU holds its voltage over each
+# step, so the step must resolve the 0.3 ms ramps of an inversion, where the stroke sags:
+# at 1 ms every inversion is a hard switch and the sag - most of the ripple - is missed
+STEP = 1e-4
 
 
 def dfa(*args, cwd):
@@ -70,7 +78,7 @@ def cosimulate(ssp, stop):
 def main():
     root = os.path.join(OUT, "workflow")
     os.makedirs(root, exist_ok=True)
-    joints = {"N": N, "k_true": K_TRUE, "spec": SPEC}
+    joints = {"N": N, "k_true": K_TRUE, "spec": SPEC, "design_ripple": DESIGN_RIPPLE}
     # 1. recordings of a device with hidden physics (the nominal file does not know k)
     nominal = preset("vshape-table1").replace(N=N, rho_l=3e12)
     generate_dataset(os.path.join(root, "data"), nominal.replace(rho_l=2e12, k=K_TRUE), nominal,
@@ -91,14 +99,14 @@ def main():
     # 3. a surrogate of the improved model
     dfa("reduce", "--params", improved, "--out", "act.json", "--quiet", cwd=root)
     # 4. the drive, designed on it and checked on the full model
-    spec = ["--voltage", V, "--force", F, "--max-ripple", SPEC["max_ripple"], "--max-drift", SPEC["max_drift"],
+    spec = ["--voltage", V, "--force", F, "--max-ripple", DESIGN_RIPPLE, "--max-drift", SPEC["max_drift"],
             "--horizon", SPEC["horizon"], "--slew-rate", SPEC["slew_rate"]]
     design = last_json(dfa("design", "--params", improved, "--model", "act.json", *spec, "--out", "drive.toml",
                            "--plot", "design.png", "--json", cwd=root))
     joints["design"] = {k: design[k] for k in ("frequency", "f_min", "f_max", "duty", "power", "verified")}
     # 5. the drive replayed as a file
     replay = last_json(dfa("simulate", "--params", improved, "--protocol", "drive.toml", "--out", "replay.csv",
-                           "--json", cwd=root))
+                           "--dt", 0, "--json", cwd=root))     # --dt 0: every solver step (the sags last ms)
     joints["replay"] = {k: replay[k] for k in ("ripple", "drift", "input_power", "x_static", "period")}
     # 6. holding a commanded stroke on the same surrogate
     x_hold = round(0.9 * replay["x_static"], 6)
@@ -131,32 +139,52 @@ def main():
 
 
 def plot(root, t, v, x, replay, design, cos, T):
-    data = np.genfromtxt(os.path.join(root, "replay.csv"), delimiter=",", names=True, comments="#")
-    fig, (av, ax, az) = plt.subplots(3, 1, figsize=(8, 8), height_ratios=[1, 2, 2])
+    with open(os.path.join(root, "replay.csv")) as fh:
+        rows = [ln for ln in fh if not ln.startswith("#")]
+    cols = rows[0].strip().split(",")
+    table = np.loadtxt(rows[1:], delimiter=",")
+    data = {c: table[:, i] for i, c in enumerate(cols)}
+    fig = plt.figure(figsize=(9, 8.5))
+    gs = fig.add_gridspec(3, 2, height_ratios=[1, 2, 2], width_ratios=[2.2, 1])
+    av, ax = fig.add_subplot(gs[0, :]), fig.add_subplot(gs[1, :])
+    az, ai = fig.add_subplot(gs[2, 0]), fig.add_subplot(gs[2, 1])
     av.plot(t, v / 1e3, color="C3", lw=0.8)
     av.set_ylabel("drive (kV)")
-    av.set_title(f"The designed drive in co-simulation: {design['frequency']:.3g} Hz full-duty inversion, ramps of "
-                 f"{2 * V / SPEC['slew_rate'] * 1e3:.2g} ms, {F:g} N load, the improved actuator", fontsize=9.5)
+    av.set_title(f"The designed drive in co-simulation with the improved actuator: {design['frequency']:.3g} Hz full-duty "
+                 f"inversion,\nramps of {2 * V / SPEC['slew_rate'] * 1e3:.2g} ms, {F:g} N load (fmpy's SSP master, "
+                 f"{STEP * 1e3:g} ms exchange)", fontsize=9.5)
     xs = replay["x_static"] * 1e3
-    for a in (ax, az):
-        a.plot(data["time"], data["stroke"] * 1e3, color="k", lw=1.0, label="dfa simulate --protocol drive.toml")
-        a.plot(t, x * 1e3, color="C1", lw=1.0, ls="--", label=f"SSP in fmpy ({STEP * 1e3:g} ms exchange, mass-spring "
-                                                                  f"load)")
+    t1 = t[-1]
+    i_last = np.nonzero(np.abs(np.diff(np.sign(v))) > 0)[0][-1]      # the last inversion
+    t_inv = t[i_last]
+    for a in (ax, az, ai):
+        a.plot(data["time"], data["stroke"] * 1e3, color="k", lw=1.0, label="full model: dfa simulate --protocol "
+                                                                            "drive.toml")
+        a.plot(t, x * 1e3, color="C1", lw=1.0, ls="--", label="system: SSP in fmpy (mass-spring load)")
         a.axhline(xs, color="C0", lw=0.8, ls=":", label="uncharged static stroke")
         a.axhspan(xs - SPEC["max_drift"] * 1e3, xs + SPEC["max_drift"] * 1e3, color="C2", alpha=0.15, lw=0,
                   label=f"|drift| <= {SPEC['max_drift'] * 1e6:g} µm")
         a.set_ylabel("stroke (mm)")
     ax.legend(fontsize=7, loc="lower right")
     ax.set_ylim(0, 1.3 * xs)
-    t1 = t[-1]
     az.set_xlim(t1 - T, t1)
     sel = t >= t1 - T
-    az.set_ylim(1e3 * min(x[sel].min(), xs - SPEC["max_ripple"]) - 0.01, xs + 0.03)
-    az.set_title(f"last period: co-simulation ripple {cos['ripple'] * 1e6:.0f} µm, drift {cos['drift'] * 1e6:.1f} µm; "
-                 f"design check ripple {design['verified']['ripple'] * 1e6:.0f} µm, drift "
-                 f"{design['verified']['drift'] * 1e6:.1f} µm (spec {SPEC['max_ripple'] * 1e6:g} / "
-                 f"{SPEC['max_drift'] * 1e6:g} µm)", fontsize=8.5)
+    lo = 1e3 * min(x[sel].min(), replay["x_static"] - SPEC["max_ripple"])
+    az.set_ylim(lo - 0.01, xs + 0.03)
+    az.axhline(xs - SPEC["max_ripple"] * 1e3, color="C3", lw=0.8, ls="--")
+    az.set_title(f"last period: system ripple {cos['ripple'] * 1e6:.0f} µm, drift {cos['drift'] * 1e6:.1f} µm;\n"
+                 f"full model {replay['ripple'] * 1e6:.0f} µm, {replay['drift'] * 1e6:.1f} µm "
+                 f"(spec {SPEC['max_ripple'] * 1e6:g} / {SPEC['max_drift'] * 1e6:g} µm)", fontsize=8.5)
     az.set_xlabel("time (s)")
+    ai.set_xlim(t_inv - 2e-3, t_inv + 6e-3)
+    ai.set_ylim(lo - 0.01, xs + 0.03)
+    ai.axhline(xs - SPEC["max_ripple"] * 1e3, color="C3", lw=0.8, ls="--",
+               label="static stroke - ripple limit")
+    ai.legend(handles=ai.get_lines()[-1:], fontsize=7, loc="lower right")
+    ai.set_title("the last inversion: the stroke sags\nwhile |V| passes zero", fontsize=8.5)
+    ai.set_xlabel("time (s)")
+    ai.ticklabel_format(axis="x", useOffset=False)
+    ai.tick_params(axis="x", labelsize=7)
     save(fig, "workflow.png")
 
 

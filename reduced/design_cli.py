@@ -39,6 +39,8 @@ def params_and_surrogate(args, say):
     if args.set:
         name += " with --set " + " ".join(args.set)
     s, note = surrogate_for(p, args.family, args.model, name, progress=not getattr(args, "quiet", False), say=say)
+    if args.model:
+        note = f"surrogate from {args.model}" + (f"; {note}" if note else "")
     return p, s, note
 
 
@@ -107,8 +109,7 @@ def design_command(args) -> int:
                          slew_rate=args.slew_rate, current_limit=args.current_limit, params=p)
     src = args.params or (f"preset {args.preset}" if args.preset else args.model)
     print(f"full-duty polarity inversion at {d.V:g} V, {d.F:g} N, held {d.horizon:g} s ({s.family} surrogate; "
-          f"{note})" if note else f"full-duty polarity inversion at {d.V:g} V, {d.F:g} N, held {d.horizon:g} s "
-          f"({s.family} surrogate)", file=out)
+          f"{note})", file=out)
     print(f"  static stroke {d.x_static * 1e3:.4f} mm, capacitance {d.capacitance * 1e12:.1f} pF, "
           f"ramp {d.t_ramp * 1e3:.4g} ms per inversion", file=out)
     print(f"  limits: ripple <= {_um(d.max_ripple)}, drift <= {_um(d.max_drift)} (stroke lost against the static "

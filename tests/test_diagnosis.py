@@ -13,6 +13,7 @@ import diagnosis
 from dfa_model import preset
 from dfa_model.recordings import read_dataset
 from dfa_model.synthetic import Measurement, generate_dataset
+from improved_support import check_improved
 
 NOMINAL = preset("vshape-table1").replace(N=41, rho_l=3e12)
 TRUTH = NOMINAL.replace(rho_l=2e12)
@@ -56,6 +57,8 @@ def test_null_dataset_reports_no_missing_physics(null):
     assert set(on_disk) >= {"mismatch", "missing_physics", "corrected_parameters", "located", "fit"}
     assert set(on_disk["fit"]["baseline"]) >= {"parameters", "train_rmse", "heldout_rmse"}
     assert (out / "report.md").is_file() and (out / "residuals.png").is_file()
+    check_improved(D, report, out)
+    assert "missing physics found: none" in (out / "improved.toml").read_text()
 
 
 def test_a_wrong_nominal_value_is_corrected_not_taken_for_missing_physics(tmp_path_factory):
@@ -66,6 +69,8 @@ def test_a_wrong_nominal_value_is_corrected_not_taken_for_missing_physics(tmp_pa
     assert c["fitted"] == pytest.approx(13e-6, rel=0.05)
     assert "nominal value(s) corrected: t_lz" in report["conclusion"]
     assert report["fit"]["improved"]["heldout_rmse"] <= 0.5 * report["fit"]["baseline"]["heldout_rmse"]
+    check_improved(D, report, out, fmu=True)
+    assert "nominal values corrected: t_lz" in (out / "improved.toml").read_text()
 
 
 def test_dfa_diagnose_bad_dataset_is_one_line(tmp_path, capsys):
@@ -75,3 +80,27 @@ def test_dfa_diagnose_bad_dataset_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"dfa: error: {tmp_path}: no recordings (*.csv)"]
     assert not (tmp_path / "out").exists()
+
+
+EDITS = [(r"^rho_l = \S+", "rho_l = -1.0", "rho_l"),
+         (r"^l_e = \S+", "l_e = 0.1", "l_e"),
+         (r"^\[mechanics\]", "[mechanics]\nmass = 0.1", "mass"),
+         (r"^t_f = \S+", "t_f = 1e3", "t_f")]
+
+
+@pytest.mark.parametrize("pattern, new, key", EDITS)
+def test_an_improved_model_edited_into_inconsistency_is_the_parameter_error(null, tmp_path, pattern, new, key):
+    """improved.toml is a parameter file like any other: an edit that breaks it is one
+    line naming the key (exit 2), never a traceback."""
+    import re
+
+    from improved_support import dfa
+    _, _, _, out = null
+    text = (out / "improved.toml").read_text()
+    edited, n = re.subn(pattern, new, text, count=1, flags=re.M)
+    assert n == 1
+    bad = tmp_path / "improved.toml"
+    bad.write_text(edited)
+    r = dfa("simulate", "--params", bad, "--voltage", "6000", "--duration", "1", "--json")
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert r.stderr.count("\n") == 1 and key in r.stderr and "Traceback" not in r.stderr, r.stderr

@@ -1,0 +1,116 @@
+"""The improved model as a file: `dfa diagnose DATASET --out DIR` writes DIR/improved.toml,
+a complete parameter file of the model the diagnosis ends with (README, 'Diagnosis';
+contract in the architecture notes, 'Improved model'), and DIR/protocols/<recording>.toml,
+the protocol each recording was read as.
+
+improved.toml is the fitted model's parameters (Parameters.to_toml: every key, every number
+exact) with provenance in comments: the dataset, the held-out errors, the missing physics
+found, and for every value the diagnosis moved, its standard error and the nominal value
+it replaces. It holds no fit-internal setting (the fits' own tolerance is applied per run,
+never stored in the parameters): N, scheme and rtol are the dataset's. It runs unchanged
+wherever a parameter file does (`dfa simulate --params`, `reduce`, `design`, `hold`,
+`fmu build`); an edit that makes it inconsistent is the parameter file's one-line error.
+"""
+from __future__ import annotations
+
+import datetime
+import math
+from pathlib import Path
+
+from dfa_model.fileio import write_text_atomic
+from dfa_model.waveforms import Protocol
+
+NAME = "improved.toml"
+PROTOCOLS = "protocols"
+
+
+def _g(v) -> str:
+    return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+
+def fitted_keys(D) -> dict:
+    """{model key: {value, stderr, nominal}} of every key the diagnosis moved from the
+    nominal actuator (the fitted resistivity, the kept entries' parameters, corrected
+    nominal values); stderr 0 for a key a chosen law's form sets without fitting it."""
+    nominal, final = D.dataset.params, D.final.params
+    nd, fd = nominal.to_dict(), final.to_dict()
+    changed = []
+    for table, keys in fd.items():
+        if not isinstance(keys, dict):
+            continue
+        for k, v in keys.items():
+            if nd.get(table, {}).get(k) != v:
+                changed.append(k)
+    numeric = [k for k in changed if not isinstance(getattr(final, k), str)]
+    errs = D.final.model_values(numeric) if numeric and D.final.cov_z is not None else \
+        {k: {"value": float(getattr(final, k)), "stderr": math.nan} for k in numeric}
+    out = {}
+    for k in changed:
+        nom = getattr(nominal, k, None)
+        if k in errs:
+            out[k] = {"value": errs[k]["value"], "stderr": errs[k]["stderr"], "nominal": nom}
+        else:
+            out[k] = {"value": getattr(final, k), "stderr": None, "nominal": nom}
+    return out
+
+
+def improved_toml(D, dataset_name: str | None = None) -> str:
+    """The text of improved.toml (module docstring)."""
+    from dfa_model import __version__
+    fk = fitted_keys(D)
+    um = lambda x: "-" if x is None else f"{x * 1e6:.3g} um"   # noqa: E731
+    when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    found = [e for e in D.kept if e.kind == "physics"]
+    corrected = [e.name.split(":", 1)[1] for e in D.kept if e.kind == "nominal"]
+    head = [f"improved model written by dfa diagnose (dfa-toolkit {__version__}, {when})",
+            f"dataset: {dataset_name or D.dataset.folder} ({len(D.dataset.recordings)} recordings, "
+            f"{len(D.dataset.conditions())} conditions); nominal parameters: its actuator.toml",
+            f"held-out stroke RMSE: baseline {um(D.baseline.heldout_rmse)}" +
+            (f" -> improved {um(D.final.heldout_rmse)}" if D.kept else "") +
+            f" (sensor noise {um(D.baseline.sigma)})",
+            "missing physics found: " + (", ".join(e.key for e in found) if found else
+                                         "none (this is the baseline: the nominal actuator with its fitted resistivity)")]
+    if corrected:
+        head.append("nominal values corrected: " + ", ".join(corrected))
+    head.append("values the diagnosis moved (value +- standard error, nominal value replaced):")
+    for k, f in fk.items():
+        if f["stderr"] is None:
+            head.append(f"  {k} = {f['value']!r} (nominal {f['nominal']!r}): the chosen form")
+        elif f["stderr"] == 0:
+            head.append(f"  {k} = {_g(f['value'])} (nominal {_g(f['nominal'])}): not a fitted coordinate (the "
+                        "chosen form sets it, or does not use it)")
+        else:
+            head.append(f"  {k} = {_g(f['value'])} +- {f['stderr']:.2g} (nominal {_g(f['nominal'])})")
+    body = []
+    for line in D.final.params.to_toml().splitlines():
+        key = line.split("=", 1)[0].strip() if "=" in line and not line.lstrip().startswith("#") else None
+        f = fk.get(key)
+        if f is not None and f["stderr"]:
+            line += f"  [diagnosis: +- {f['stderr']:.2g}, nominal {_g(f['nominal'])}]"
+        elif f is not None:
+            line += f"  [diagnosis: nominal {_g(f['nominal'])}]"
+        body.append(line)
+    return "\n".join(f"# {h}" for h in head) + "\n\n" + "\n".join(body) + "\n"
+
+
+def write_improved(D, out: Path) -> str:
+    """Write out/improved.toml; returns its name relative to out."""
+    text = improved_toml(D)
+    write_text_atomic(Path(out) / NAME, text)
+    return NAME
+
+
+def write_protocols(D, out: Path) -> dict:
+    """Each recording's interpreted protocol (its voltage column read as stages, its force
+    as the load) as a protocol file in out/protocols/: {recording: relative path}."""
+    folder = Path(out) / PROTOCOLS
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    for r in D.dataset.recordings:
+        name = f"{Path(r.name).stem}.toml"
+        Protocol(list(r.protocol.stages), load=r.load).save(
+            folder / name, header=[f"the drive and load of recording {r.path.name} as dfa diagnose read them "
+                                   f"(levels switched at the voltage's threshold crossings)",
+                                   f"replay: dfa simulate --params {NAME} --protocol {PROTOCOLS}/{name}"])
+        paths[r.name] = f"{PROTOCOLS}/{name}"
+    return paths
