@@ -24,13 +24,14 @@ import numpy as np
 
 HERE = Path(__file__).parent
 # modules whose njit functions go into the compiled code (also: what _jitcache hashes)
-KERNEL_MODULES = ("equations", "nodal", "kinematics", "integrator", "kernels", "dielectrics")
+KERNEL_MODULES = ("equations", "nodal", "kinematics", "integrator", "kernels", "dielectrics", "surrogate_kernel")
 AOT_MODULE = "_kernels_aot"
 
 # The compiled exports: "module.function" -> argument codes, result code. Codes:
 # i int64, f float64, b bool, F1/F2/F3 float64 C-contiguous array of that rank, I1 int64
 # array, W the integrator's workspace (integrator.make_workspace), R integrate's result,
-# n None, T2/T6 tuples of floats. aot.py turns them into numba signatures.
+# n None, T2/T6 tuples of floats, S the surrogate integrator's result. aot.py turns them into
+# numba signatures.
 EXPORTS = {
     "integrator.integrate": ("I1 F1 F1 i F1 F1 F1 F1 F1 F1 F1 f f F1 F1 b b i F1 W F1 b b i", "R"),
     "kernels.rhs": ("I1 F1 F1 i F1 f f F1 F1 F1 F1 F2 F1", "f"),
@@ -41,6 +42,9 @@ EXPORTS = {
     "kinematics.profile": ("i F1 F1 f", "T2"),
     "kinematics.peano_state": ("f f f", "T6"),
     "kinematics.peano_theta_of_lz": ("f f f", "f"),
+    "surrogate_kernel.integrate": ("F1 F1 F1 F1 F1 F1 F1 F2 F1 i F1 F1 f f F2 i", "S"),
+    "surrogate_kernel.evaluate": ("F1 f f F2 F1 i F1 F1 i", "T2"),
+    "surrogate_kernel.pi_loop": ("F1 F2 F1 i F1 F1 f F1 i i i F2", "S"),
 }
 # ranks of the workspace's arrays (integrator.make_workspace)
 WORKSPACE_RANKS = (3, 2, 2, 2, 3, 2, 2, 1, 1, 1, 2, 1)

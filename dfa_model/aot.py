@@ -33,6 +33,8 @@ def _types():
              "n": types.none, "T2": types.UniTuple(f64, 2), "T6": types.UniTuple(f64, 6)}
     # integrate: (record, states, stats, y_end, trace)
     codes["R"] = types.Tuple((arr["F2"], arr["F2"], arr["F1"], arr["F1"], arr["F2"]))
+    # the surrogate's integrate: (status, rows, steps, y_end)
+    codes["S"] = types.Tuple((i64, i64, i64, arr["F1"]))
     return codes
 
 

@@ -46,7 +46,6 @@ import numpy as np
 from dfa_model import metrics
 from dfa_model.waveforms import Bipolar, Protocol, Stage, charge_phase_offset
 
-from . import kernel
 
 N_TAIL = 4   # periods of the real waveform simulated after the averaged run
 
@@ -185,25 +184,20 @@ def simulate_averaged(s, V, F, f, positive_share, horizon, t_ramp=0.0, *, balanc
         tail = s.simulate(Protocol([Stage(wave, span, "hold")]), F, rtol=tail_rtol)
         t_shift = horizon - span
     else:
-        # the charge is q = <q> + b (g - <g>) (module docstring): an uncharged start at
-        # phase 0 (g = 0) has the period-mean charge <q>(0) = b <g>, and the tail, starting
-        # at phase 0 again, q = <q>(end) - b <g>. The offset b <g> ~ b V T / 4 decays only
-        # with tau: on horizons ~ tau it is part of the answer.
-        # (the front layer's share of q_d oscillates with its own rate b_f: q_d' = (b - b_f) g')
-        row = np.empty(kernel.NTAB)
-        kernel._row(s.tables, s.x_e, min(max(x_static, 0.0), s.x_e), row)
+        # the charge is q = <q> + b (g - <g>) (module docstring), b each charge state's input
+        # gain: an uncharged start at phase 0 (g = 0) has the period-mean charge <q>(0) = b <g>,
+        # and the tail, starting at the drive's phase again, q = <q>(end) - b <g>. The offset
+        # b <g> ~ b V T / 4 decays only with tau: on horizons ~ tau it is part of the answer.
         g0 = charge_phase_offset(wave)
-        y_start = {"q_z": row[kernel.B_V] * g0}
-        if s.has_deficit:
-            y_start["q_d"] = (row[kernel.B_V] - row[kernel.B_F]) * g0
+        gains = s.input_gains(min(max(x_static, 0.0), s.x_e))
+        y_start = {name: b * g0 for name, b in gains.items()}
         slow = s.simulate(Protocol.dc(V_mean, t_slow), F, rtol=rtol, averaged=[W], y0=y_start)
         y = slow.y_end.copy()
-        kernel._row(s.tables, s.x_e, min(max(y[0], 0.0), s.x_e), row)
-        y0 = {"x": y[0], "q_z": y[2] - row[kernel.B_V] * g0}
-        if s.has_deficit:
-            y0["q_d"] = y[3] - (row[kernel.B_V] - row[kernel.B_F]) * g0
-        if s.has_mass:
-            y0["v"] = y[1]
+        gains = s.input_gains(min(max(y[0], 0.0), s.x_e))
+        names = dict(s._names)
+        y0 = {name: y[names[name]] for name in s.state_names}
+        for name, b in gains.items():
+            y0[name] -= b * g0
         tail = s.simulate(Protocol([Stage(wave, n_tail * T, "hold")]), F, rtol=tail_rtol, y0=y0)
         t_shift = t_slow
     rip, xm = last_period(tail, T)

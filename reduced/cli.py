@@ -45,10 +45,15 @@ def cmd_reduce(args) -> int:
     p = base._params(args)
     check_writable("--out", args.out, ("json",))
     executor = base._dask_executor(args.scheduler) if args.scheduler else None
+    own = None
     if executor is None and args.workers:
         from concurrent.futures import ProcessPoolExecutor
-        executor = ProcessPoolExecutor(max_workers=args.workers)
-    s = fitting.fit(p, family=args.family, executor=executor, progress=not args.quiet)
+        executor = own = ProcessPoolExecutor(max_workers=args.workers)
+    try:
+        s = fitting.fit(p, family=args.family, executor=executor, progress=not args.quiet)
+    finally:
+        if own is not None:      # an executor left open ends the process with a traceback
+            own.shutdown(wait=True, cancel_futures=True)
     s.save(args.out)
     rows = s.info.get("heldout", [])
     print(f"{s.family} surrogate, {s.n_states} states {s.state_names}; held-out conditions:", file=sys.stderr)

@@ -83,7 +83,7 @@ def _metrics(res, protocol):
     return hold_speed(res, protocol), ripple, float(res.drift)
 
 
-def compare(surrogate, protocol, load=None, full_result=None, rtol=1e-4) -> dict:
+def compare(surrogate, protocol, load=None, full_result=None, rtol=None) -> dict:
     """Run the full model (the surrogate's actuator) and the surrogate on `protocol`
     with `load` (a Load or a constant force in N; default the protocol's own, else 0);
     returns the KEYS plus the two results under 'full' and 'reduced'. Wall times are
@@ -96,7 +96,7 @@ def compare(surrogate, protocol, load=None, full_result=None, rtol=1e-4) -> dict
         full = full_result if full_result is not None else simulate(p, protocol, load=F)
         wall_full = full.wall_time if full_result is not None else time.perf_counter() - t0
     t0 = time.perf_counter()
-    red = surrogate.simulate(protocol, F, rtol=rtol)
+    red = surrogate.simulate(protocol, F) if rtol is None else surrogate.simulate(protocol, F, rtol=rtol)
     wall_red = time.perf_counter() - t0
     err = rms_difference(red.trace, full.trace)
     rng = float(full.trace.max() - full.trace.min())

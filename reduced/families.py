@@ -6,68 +6,80 @@ lumped   The literature's control-oriented circuit: the zipped region as a film 
          is the state; the force is Eq. (10)'s lumped co-energy with the liquid layer's
          field reduced by that charge:  F_e = (w/2) dl_z/dx c_f c_l/(c_f+c_l) (V - q/c_f)^2.
          Every number from geometry and materials: no fitting (refine with fit()).
-charge   Reduced charge dynamics of the full model. At a frozen stroke the full model's
-         charge equations are linear and every zipped element has the same pole, so the
-         charge of material the front has crossed reduces exactly to one state q_z;
-         the force and current are the full model's own static maps with that charge
-         (frozen.uniform_charge_tables). But the force acts through the few elements
-         at the front, not through zipped material, and they charge at their own
-         rates: a front-layer state q_d = q_z - q_f whose rates (a_f, b_f) match the
-         full model's force-weighted charge at s = 0 and s = infinity
-         (frozen.front_layer). The moving front renews the layer over a length
-         ell(x) = c_ell w_f(x), w_f the layer's width read off the full model's force
-         sensitivity (frozen.front_layer): retreating, with zipped material; advancing,
-         with the material beyond, which still carries a share beta_f of the layer's
-         deficit (a front that comes back finds much of its old layer). c_ell and
-         beta_f are fit()'s two numbers.
+charge   The full model reduced in material terms (dfa_model/surrogate_kernel.py has the
+         states and their physics): the front layer, an effective material point whose
+         rates match the full model's force-weighted charge at s = 0 and s = infinity
+         at each frozen stroke (frozen.front_layer, frozen.front_point) and through
+         which the force acts (the full model's quadratic map, exact in statics); its
+         two wakes (c_w layer widths of zipped material behind it and unzipped material
+         ahead, frozen.wake_gap); and N_POINTS material points that keep the charge
+         history along the electrode (frozen.material_tables). With the polarization
+         branch each state carries its P, and the branch's force over the unzipped
+         length is quadratic in the points' P (frozen.polarization_weights). The moving
+         front renews the layer over ell = c_ell w_f(x): fit()'s one number.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from dfa_model import DFAModel
+from dfa_model import surrogate_kernel as sk
 
 from . import frozen
-from .kernel import A_F, A_Q, B_F, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB, W_F
 from .surrogate import Surrogate
 
 FAMILIES = ("lumped", "charge")
+N_POINTS = 11          # material points of the charge family (4 mm apart on Table 1's 40 mm electrode)
 
 
-def lumped(params, n_grid: int = 161) -> Surrogate:
-    """The lumped equivalent circuit from geometry and materials (no fitting)."""
+def effective_point(params, a: float, b: float) -> tuple[float, float]:
+    """(1/u, T0') of the material point whose pointwise rates are dq/dt = a q + b V."""
+    c = 1.0 / (params.rho_l * params.eps_l) - 1.0 / params.tau_f
+    iu = b / (c * params.eps_l)
+    return iu, -(a + 1.0 / params.tau_f) / (c * iu)
+
+
+def lumped(params, n_grid: int = 161, force_scale: float = 1.0, rate_scale: float = 1.0) -> Surrogate:
+    """The lumped equivalent circuit from geometry and materials (no fitting): one charge,
+    the zipped region's, as the layer (no material points, no renewal)."""
     model = frozen.as_model(params)
-    p = model.params
+    pm = frozen.plain(model)
+    p = pm.params
     c_f, c_l = p.eps_f / (2.0 * p.t_f), p.eps_l / p.t_lz           # F/m^2 of zipped area
     g_f, g_l = 1.0 / (2.0 * p.t_f * p.rho_f), 1.0 / (p.rho_l * p.t_lz)  # S/m^2
     cs = c_f + c_l
     xg = np.linspace(0.0, model.kin.x_e, n_grid)
     lz, dlz = model.kin.lz(xg), model.kin.dlz_dx(xg)
-    tab = np.zeros((n_grid, NTAB))
-    c0 = 0.5 * p.w * dlz * c_f * c_l / cs
-    tab[:, C0], tab[:, C1], tab[:, C2] = c0, -2.0 * c0 / c_f, c0 / c_f ** 2
-    a, b = -(g_f + g_l) / cs, (c_f * g_l - c_l * g_f) / cs
-    tab[:, A_Q], tab[:, B_V] = a, b
-    tab[:, A_F], tab[:, B_F] = a, b     # no front layer of its own: no deficit state
+    tab = np.zeros((n_grid, sk.NFIX))
+    c0 = 0.5 * p.w * dlz * c_f * c_l / cs * force_scale
+    tab[:, sk.C0], tab[:, sk.C1], tab[:, sk.C2] = c0, -2.0 * c0 / c_f, c0 / c_f ** 2
+    a, b = -(g_f + g_l) / cs * rate_scale, (c_f * g_l - c_l * g_f) / cs * rate_scale
+    tab[:, sk.IUF], tab[:, sk.T0F] = effective_point(p, a, b)
     # source current: the film's charge c_f (V - v_l) on the zipped area, its change
     # (motion and charging), and the film's leakage g_f (V - v_l); V - v_l = (c_l V + q)/cs
     area, darea = p.w * lz, p.w * dlz
-    tab[:, I0] = area * (c_f / cs * b + g_f * c_l / cs)
-    tab[:, I1] = area * (c_f / cs * a + g_f / cs)
-    tab[:, J0], tab[:, J1] = darea * c_f * c_l / cs, darea * c_f / cs
-    tab[:, DLZ] = dlz
-    tab[:, W_F] = 1.0       # no front layer: never read
-    info = {"source": "geometry and materials (lumped circuit)", "tau": -1.0 / a}
-    return Surrogate("lumped", p, xg, tab, info=info)
+    tab[:, sk.I0] = area * (c_f / cs * b + g_f * c_l / cs)
+    tab[:, sk.I1] = area * (c_f / cs * a + g_f / cs)
+    tab[:, sk.J0], tab[:, sk.J1] = darea * c_f * c_l / cs, darea * c_f / cs
+    # the circuit's capacitance, at least the full model's with nothing zipped (a series
+    # resistance divides by it)
+    cap0 = pm.diagnostics(frozen.state(pm, 0.0), 1000.0)[0][frozen.R_C]
+    tab[:, sk.CAP] = np.maximum(area * c_f * c_l / cs, cap0)
+    tab[:, sk.DLZ], tab[:, sk.LZ] = dlz, lz
+    tab[:, sk.WF] = 1.0       # no renewal: never read
+    info = {"source": "geometry and materials (lumped circuit)", "tau": -1.0 / a, "force_scale": force_scale,
+            "rate_scale": rate_scale}
+    return Surrogate("lumped", model.params, xg, tab, 0, float("inf"), info)
 
 
-def charge(params, n_grid: int = 161, c_ell: float = 1.0, beta_f: float = 1.0) -> Surrogate:
-    """Reduced charge dynamics read off the full model (c_ell, beta_f: the front layer's
-    renewal, Surrogate; until fitted, ell = w_f and a returning front finds its layer)."""
+def charge(params, n_grid: int = 161, c_ell: float = 1.8, n_points: int = N_POINTS, c_w: float = 4.0) -> Surrogate:
+    """Material points, the front layer and its wakes read off the full model
+    (frozen.material_tables; c_ell: the layer's renewal length over its width, fit's
+    number; c_w: the wakes' width over the layer's)."""
     model = frozen.as_model(params)
-    xg, tab = frozen.uniform_charge_tables(model, n_grid)
-    info = {"source": "full model's frozen-stroke maps (reduced charge dynamics)", "tau": -1.0 / tab[0, A_Q]}
-    return Surrogate("charge", model.params, xg, tab, c_ell, beta_f, info)
+    xg, tab = frozen.material_tables(model, n_grid, n_points, c_w)
+    a, _ = frozen.zipped_rates(frozen.plain(model))
+    info = {"source": "full model's frozen-stroke maps (material points and the front layer)", "tau": -1.0 / a}
+    return Surrogate("charge", model.params, xg, tab, n_points, c_ell, info, c_w)
 
 
 def build(params, family: str, **kw) -> Surrogate:

@@ -11,9 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from dfa_model import DFAModel, Parameters
-from dfa_model.equations import R_I, U0
+from dfa_model import surrogate_kernel as sk
+from dfa_model.equations import R_C, R_I, U0
+from dfa_model.equations import T0 as T0_INDEX
 
-from .kernel import A_F, A_Q, B_F, B_V, C0, C1, C2, DLZ, I0, I1, J0, J1, NTAB, W_F
 
 V_REF = 1000.0     # V: evaluation amplitude (the maps are exact quadratic/affine forms)
 N_FRONT = 41       # grid points of the front layer's rates (about 25 ms each)
@@ -21,26 +22,40 @@ W_F_MIN = 0.5      # the front layer's least width, in u0
 
 
 def as_model(params) -> DFAModel:
+    """The full model of `params` (any physics the continuum scheme carries: laws, the
+    polarization branch, a series resistance, mass, stiffness)."""
     if isinstance(params, DFAModel):
         model = params
     elif isinstance(params, Parameters):
         model = DFAModel(params)
     else:
         raise TypeError("expected Parameters or DFAModel")
-    if not model.law.is_constant:
-        raise ValueError(f"law: the surrogates need the constant resistivity law (linear charge dynamics), got "
-                         f"{model.params.law!r}")
     if model.params.scheme == "paper":
         raise ValueError("scheme: the surrogates are fitted to the 'continuum' or 'continuum-p0' schemes, "
-                         "not 'paper'")
-    # one line naming the key, not a shape error from deep inside the maps
-    if model.polarized:
-        raise ValueError(f"chi_p: the surrogates do not carry the polarization branch (chi_p = {model.params.chi_p:g}): "
-                         "its second state per material point has no reduced form here yet")
-    if model.series:
-        raise ValueError(f"R_s: the surrogates do not carry a series resistance (R_s = {model.params.R_s:g} ohm): the "
-                         "device voltage behind it has no reduced state here yet")
+                         "not 'paper' (its fictitious series resistor has no reduced form)")
     return model
+
+
+E_REF = 5e7     # V/m: the field at which a field-dependent law's resistivity sets the plain twin's
+
+
+def plain(model: DFAModel) -> DFAModel:
+    """The actuator without the physics that only the pointwise rates carry (the
+    polarization branch, a series resistance, a field-dependent law: its resistivity at
+    E_REF, the zipped field of about 5 kV): its frozen-stroke maps are linear in (V, q),
+    and the front layer's effective point (front_point), the force's and the current's
+    maps are read off it. The effective point does not depend on the resistivity (the
+    layer's gap and screening thickness: within 0.1 um and 3 % over a 16x range of rho_l,
+    README 'Surrogates'), so the law's own conductance applies to it in the kernel."""
+    p = model.params
+    changes = {}
+    if p.chi_p > 0:
+        changes["chi_p"] = 0.0
+    if p.R_s > 0:
+        changes["R_s"] = 0.0
+    if not model.law.is_constant:
+        changes.update(law="constant", rho_l=float(model.law.rho(np.array([E_REF]))[0]))
+    return DFAModel(p.replace(**changes)) if changes else model
 
 
 def u0(model: DFAModel) -> float:
@@ -145,41 +160,166 @@ def _current(model: DFAModel, x, V, q, xdot):
     return model.diagnostics(y, V, F)[0][R_I]
 
 
-def uniform_charge_tables(model: DFAModel, n_grid: int = 161) -> tuple[np.ndarray, np.ndarray]:
-    """Tables over x in [0, x_e] of the full model with a uniform interface charge q:
-    F_e = c0 V^2 + c1 V q + c2 q^2, current = i0 V + i1 q + xdot (j0 V + j1 q),
-    dl_z/dx; the charge columns hold the zipped material's rates (a, b) and the front
-    layer's (a_f, b_f) and its width w_f (front_layer)."""
+# ------------------------------------------------------------------ material-point surrogate
+def _uniform(model: DFAModel, x: float, q: float = 0.0, P: float = 0.0, v: float = 0.0) -> np.ndarray:
+    """State at stroke x with a uniform interface charge q (the q' the electrostatics
+    see) and, with the polarization branch, a uniform polarization P."""
+    y = model.initial_state(x)
+    if model.nbord == 2:
+        y[1] = v
+    nq = model.params.N
+    y[model.nbord:model.nbord + nq] = q
+    if model.polarized:
+        y[model.nbord + nq:model.nbord + 2 * nq] = P
+    return y
+
+
+def front_point(plain_model: DFAModel, a_f: float, b_f: float) -> tuple[float, float]:
+    """(1/u_f, T0_f): the effective material point whose pointwise rates
+    dq/dt = c (eps_l V - T0_f q) / u_f - q / tau_f are the front layer's (a_f, b_f),
+    c = 1/tau_l - 1/tau_f. Matched dielectrics (c = 0) have no layer dynamics to match:
+    the zipped material's point."""
+    p = plain_model.params
+    c = 1.0 / (p.rho_l * p.eps_l) - 1.0 / p.tau_f
+    u0_ = u0(plain_model)
+    T0 = 2.0 * p.eps_l * p.t_f / p.eps_f
+    if not abs(c) > 1e-9 / p.tau_f or not np.isfinite(a_f * b_f):
+        return 1.0 / u0_, T0
+    iu = b_f / (c * p.eps_l)
+    t0f = -(a_f + 1.0 / p.tau_f) / (c * iu) if iu != 0 else T0
+    if not (iu > 0 and np.isfinite(t0f) and t0f > 0):
+        return 1.0 / u0_, T0
+    return float(iu), float(t0f)
+
+
+def point_positions(model: DFAModel, n_points: int) -> np.ndarray:
+    """The material points' positions along the electrode (both ends included)."""
+    return np.linspace(0.0, model.params.l_e, n_points) if n_points >= 2 else np.zeros(0)
+
+
+def wake_gap(model: DFAModel, xg, w_f, c_w: float) -> np.ndarray:
+    """The unzipped wake's mean inverse gap over [l_z, l_z + c_w w_f] at each stroke
+    (clipped at the electrode's end; the zipped gap where nothing is left)."""
+    gx, gw = np.polynomial.legendre.leggauss(10)
+    T0 = 2.0 * model.params.eps_l * model.params.t_f / model.params.eps_f
+    out = np.empty(len(xg))
+    for i, x in enumerate(xg):
+        lz = float(model.kin.lz(x))
+        L = min(c_w * w_f[i], model.params.l_e - lz)
+        if not L > 0:
+            out[i] = 1.0 / u0(model)
+            continue
+        s_ = lz + 0.5 * L * (1.0 + gx)
+        out[i] = float(np.sum(0.5 * gw / (model.kin.t_l(s_, x) + T0)))
+    return out
+
+
+def material_tables(model: DFAModel, n_grid: int = 161, n_points: int = 11, c_w: float = 2.0):
+    """(x_grid, tables) of the material-point surrogate (dfa_model.surrogate_kernel's
+    columns): over x in [0, x_e] the force's quadratic map in the layer's (V, q, P), the
+    layer's effective point, width and the front's lever, the device capacitance, the
+    current's maps, the unzipped wake's mean gap (c_w layer widths wide) and each
+    material point's inverse gap 1/u(s_i, x)."""
+    pm = plain(model)
     x_e = model.kin.x_e
     xg = np.linspace(0.0, x_e, n_grid)
-    n = model.n_states
-    qs = q_scale(model)
-    one = np.full(n, qs)
-    a, b = zipped_rates(model)
-    tab = np.zeros((n_grid, NTAB))
-    dv = 1e-3 * x_e   # m/s: a probe velocity (the current is linear in it)
-    for i, x in enumerate(xg):
-        fv = model.electrostatic_force(state(model, x), V_REF)
-        fq = model.electrostatic_force(state(model, x, one), 0.0)
-        fvq = model.electrostatic_force(state(model, x, one), V_REF)
-        tab[i, C0] = fv / V_REF ** 2
-        tab[i, C2] = fq / qs ** 2
-        tab[i, C1] = (fvq - fv - fq) / (V_REF * qs)
-        iv = _current(model, x, V_REF, None, 0.0)
-        iq = _current(model, x, 0.0, one, 0.0)
-        tab[i, I0], tab[i, I1] = iv / V_REF, iq / qs
-        tab[i, J0] = (_current(model, x, V_REF, None, dv) - iv) / (dv * V_REF)
-        tab[i, J1] = (_current(model, x, 0.0, one, dv) - iq) / (dv * qs)
-    tab[:, A_Q], tab[:, B_V] = a, b
-    # the front layer's rates on a coarser grid (each point solves the charge system)
+    qs = q_scale(pm)
+    tab = np.zeros((n_grid, sk.NFIX + n_points))
+    # the front layer: its rates, effective point and width (a coarser grid: each point
+    # solves the charge system)
+    a, b = zipped_rates(pm)
     xf = np.linspace(0.0, x_e, N_FRONT)
-    af, bf, wf = np.array([front_layer(model, x, (a, b)) for x in xf]).T
-    tab[:, A_F], tab[:, B_F] = np.interp(xg, xf, af), np.interp(xg, xf, bf)
-    # no layer at the ends (nothing zipped, or all of it): the neighbours' width; at least
-    # W_F_MIN u0, where the layer ends (the front on the electrode end, a stated breakdown)
-    # and the renewal rate |dl_z/dt| / ell would otherwise grow without bound
+    af, bf, wf = np.array([front_layer(pm, x, (a, b)) for x in xf]).T
+    pts = np.array([front_point(pm, fa, fb) for fa, fb in zip(af, bf)])
+    tab[:, sk.IUF], tab[:, sk.T0F] = np.interp(xg, xf, pts[:, 0]), np.interp(xg, xf, pts[:, 1])
     ok = np.isfinite(wf) & (wf > 0)
     wf = np.interp(xf, xf[ok], wf[ok]) if ok.any() else np.ones_like(xf)
-    tab[:, W_F] = np.maximum(np.interp(xg, xf, wf), W_F_MIN * u0(model))
-    tab[:, DLZ] = model.kin.dlz_dx(xg)
+    tab[:, sk.WF] = np.maximum(np.interp(xg, xf, wf), W_F_MIN * u0(pm))
+    T0 = float(pm.mat[T0_INDEX])
+    s_full = np.linspace(0.0, model.params.l_e, model.params.N)       # the full model's material points
+    dv = 1e-3 * x_e
+    for i, x in enumerate(xg):
+        fv = pm.electrostatic_force(_uniform(pm, x), V_REF)
+        fq = pm.electrostatic_force(_uniform(pm, x, qs), 0.0)
+        fvq = pm.electrostatic_force(_uniform(pm, x, qs), V_REF)
+        tab[i, sk.C0] = fv / V_REF ** 2
+        tab[i, sk.C2] = fq / qs ** 2
+        tab[i, sk.C1] = (fvq - fv - fq) / (V_REF * qs)
+        iv = _current(pm, x, V_REF, None, 0.0)
+        iq = _current(pm, x, 0.0, np.full(pm.n_states, qs), 0.0)
+        tab[i, sk.I0], tab[i, sk.I1] = iv / V_REF, iq / qs
+        tab[i, sk.J0] = (_current(pm, x, V_REF, None, dv) - iv) / (dv * V_REF)
+        tab[i, sk.J1] = (_current(pm, x, 0.0, np.full(pm.n_states, qs), dv) - iq) / (dv * qs)
+        tab[i, sk.CAP] = pm.diagnostics(state(pm, x), V_REF)[0][R_C]
+    tab[:, sk.DLZ] = pm.kin.dlz_dx(xg)
+    tab[:, sk.LZ] = pm.kin.lz(xg)
+    s_pts = point_positions(pm, n_points)
+    for i, x in enumerate(xg):
+        tab[i, sk.NFIX:] = 1.0 / (pm.kin.t_l(s_pts, x) + T0)
+    tab[:, sk.IUA] = wake_gap(pm, xg, tab[:, sk.WF], c_w)
+    if model.polarized:
+        tab[:, sk.PAA], D, O = polarization_weights(model, xg, tab[:, sk.WF] * c_w, tab[:, sk.IUA], s_pts)
+        tab = np.hstack([tab, D, O])
     return xg, tab
+
+
+def polarization_weights(model: DFAModel, xg, L_a, iu_a, s_pts):
+    """The polarization's force, a quadratic form in the ahead wake's P_a and the
+    material points' P_i: (W_aa, D, O) at each stroke, F_P = W_aa P_a^2 + sum_i D_i P_i^2
+    + 2 sum_i O_i P_i P_{i+1}.
+
+    The branch's energy t_l P^2/(2 chi_p eps_l) gives a force c dt_l/dx P^2 over the
+    whole unzipped length (c read off the full model with a uniform P at each stroke),
+    not through the front alone as the field's does: released at zero voltage, a front
+    that retreats over material zipped a moment ago is held by that material's P,
+    millimetres of it. So the profile P(s) is rebuilt from the states that carry it:
+    over the ahead wake's band [l_z, l_z + L_a] P_a shaped as 1/u (the field's profile
+    there, P_a its band mean: the wake's rates see the band's mean inverse gap), beyond
+    it P u linear between the material points, which is exact both for a P that follows
+    the field (P u constant) and for material carrying one zipped P (u linear in s)."""
+    p = model.params
+    N, nb = p.N, model.nbord
+    T0 = 2.0 * p.eps_l * p.t_f / p.eps_f
+    n = len(s_pts)
+    W_aa = np.zeros(len(xg))
+    D = np.zeros((len(xg), n))
+    O = np.zeros((len(xg), n))
+    r = np.unique(np.r_[np.geomspace(1e-7, 1.0, 1200), np.linspace(0.0, 1.0, 801)])
+    for k, x in enumerate(xg):
+        lz = float(model.kin.lz(x))
+        if lz >= p.l_e:
+            continue
+        y = model.initial_state(x)
+        y[nb + N:nb + 2 * N] = 1.0
+        s = lz + (p.l_e - lz) * r
+        G = model.kin.dt_l_dx(s, x)
+        norm = np.trapezoid(G, s)
+        if not abs(norm) > 0:
+            continue
+        c = model.electrostatic_force(y, 0.0) / norm        # the force of a uniform unit P
+        sa = min(lz + L_a[k], p.l_e)
+        s = np.unique(np.r_[s, sa, s_pts[(s_pts > lz) & (s_pts < p.l_e)]])
+        G = c * model.kin.dt_l_dx(s, x)
+        u = model.kin.t_l(s, x) + T0
+        band = s <= sa
+        if band.sum() > 1:
+            W_aa[k] = np.trapezoid((G / (u * iu_a[k]) ** 2)[band], s[band])
+        sl, Gl, ul = s[~band | (s == sa)], G[~band | (s == sa)], u[~band | (s == sa)]
+        if len(sl) < 2:
+            continue
+        u_pts = model.kin.t_l(s_pts, x) + T0
+        # each trapezoid piece [sl_j, sl_j+1] lies in one interval i (the points are grid
+        # nodes): both its ends weighed with that interval's pair
+        i = np.clip(np.searchsorted(s_pts, sl[:-1], side="right") - 1, 0, n - 2)
+        h = s_pts[i + 1] - s_pts[i]
+        ds = np.diff(sl)
+        for end in (0, 1):
+            se, ge, ue = sl[end:len(sl) - 1 + end], Gl[end:len(Gl) - 1 + end], ul[end:len(ul) - 1 + end]
+            f = (se - s_pts[i]) / h
+            # P(s) = (a_i (1 - f) + a_{i+1} f) / u(s), a_i = P_i u(s_i)
+            w0 = (1.0 - f) * u_pts[i] / ue
+            w1 = f * u_pts[i + 1] / ue
+            np.add.at(D[k], i, 0.5 * ds * ge * w0 * w0)
+            np.add.at(D[k], i + 1, 0.5 * ds * ge * w1 * w1)
+            np.add.at(O[k], i, 0.5 * ds * ge * w0 * w1)
+    return W_aa, D, O

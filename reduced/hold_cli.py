@@ -24,6 +24,8 @@ def add_hold_parser(subparsers):
                     help="length of the hold, s (default 300)")
     ph.add_argument("--frequency", type=base._number(0.0, 1e3, lo_open=True), default=10.0, metavar="HZ",
                     help="polarity-inversion frequency of the drive, Hz (default 10)")
+    ph.add_argument("--dt", type=base._number(0.0, 1.0, lo_open=True), metavar="S",
+                    help="control step, s (default: the longest step <= 0.01 s that divides the half period)")
     add_model_flags(ph)
     ph.add_argument("--quiet", action="store_true", help="no progress bar when a surrogate is fitted")
     ph.add_argument("--plot", metavar="FILE.png", help="the three strokes and the loop's amplitude")
@@ -48,7 +50,7 @@ def cmd_hold(args) -> int:
     p, s, note = params_and_surrogate(args, lambda text: print(f"dfa: {text}", file=sys.stderr))
     model = checked(p)
     try:
-        c = tune_hold_controller(s, args.stroke, args.force, frequency=args.frequency)
+        c = tune_hold_controller(s, args.stroke, args.force, frequency=args.frequency, dt_control=args.dt)
     except ValueError as exc:
         raise base.CLIError(str(exc)) from None
     print(f"PI loop tuned on the {s.family} surrogate ({note}) at {args.stroke * 1e3:g} mm, {args.force:g} N: "

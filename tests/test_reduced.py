@@ -27,15 +27,17 @@ def fitted():
     return reduced.fit(preset("vshape-table1"), family="charge", progress=False)
 
 
-def _check_heldout(rows, states_max=4):
+def _check_heldout(rows, states_max=16):
     rows = [r for r in rows if r["stroke_range"] >= 20e-6]     # runs that zip at all
     assert rows
     for r in rows:
         assert r["states"] <= states_max
         assert r["relative_rms_error"] <= 0.02, r
-        # held on the electrode end, the speed hinges on the release time: a stated
-        # breakdown (README), checked for the RMS goal only
-        if r["speed_error"] is not None and r["unzipping_speed_full"] > 1e-6 and not r["front_at_end"]:
+        # the DC unzipping speed (the issue's goal); held on the electrode end, the speed
+        # hinges on the release time, and a pulse train's per-period peak decay is a stated
+        # breakdown (README, 'Surrogates': the re-zip's memory): both checked for RMS only
+        dc = ", dc" in r["condition"]
+        if dc and r["speed_error"] is not None and r["unzipping_speed_full"] > 1e-6 and not r["front_at_end"]:
             assert r["speed_error"] <= 0.05, r
         if r["ripple_full"] is not None and abs(r["drift_full"]) > 20e-6:
             assert abs(r["drift_reduced"] / r["drift_full"] - 1) <= 0.10, r
@@ -63,7 +65,8 @@ def test_lumped_circuit_is_the_baseline(fitted):
     lump = reduced.lumped(p)
     a_full, b_full = frozen.zipped_rates(frozen.as_model(p))
     assert lump.info["tau"] == pytest.approx(-1 / a_full, rel=1e-9)
-    assert lump.tables[0, 4] == pytest.approx(b_full, rel=1e-9)
+    gains = lump.input_gains(0.5 * lump.x_e)
+    assert gains["q_f"] == pytest.approx(b_full, rel=1e-9)
     rows = reduced.evaluate(lump, [Condition(6000, 5, reset=3.0)], progress=False)
     ours = [r for r in fitted.info["heldout"] if r["condition"] == rows[0]["condition"]][0]
     assert rows[0]["speed_error"] > ours["speed_error"]
@@ -73,7 +76,7 @@ def test_python_control_system_matches_fast_path(fitted):
     import control
     sys_ = fitted.system()
     assert isinstance(sys_, control.NonlinearIOSystem)
-    assert sys_.input_labels == ["voltage", "force"] and sys_.output_labels == ["stroke", "current"]
+    assert sys_.input_labels == ["voltage", "force"] and sys_.output_labels == ["stroke", "current_no_ramp", "capacitance"]
     t = np.linspace(0, 2, 401)
     r = control.input_output_response(sys_, t, [np.full_like(t, 6000.0), np.full_like(t, 5.0)],
                                       X0=np.zeros(fitted.n_states), solve_ivp_method="LSODA")
@@ -96,7 +99,8 @@ def test_matched_dielectrics_hold_the_stroke():
     p = preset("vshape-table1")
     p = p.replace(rho_l=p.rho_f * p.eps_f / p.eps_l)
     r = reduced.charge(p).simulate(Protocol.dc(6000.0, 30.0), 5.0)
-    assert abs(r.q_z).max() < 1e-12
+    assert abs(r.q_f).max() < 1e-12 and np.all(np.abs(r.y_end[:-2]) < 1e-12 + np.abs(r.y_end[:-2]) * (
+        np.arange(r.y_end.size - 2) < 2))
     assert r.final_stroke == pytest.approx(r.trace(1.0), rel=1e-6)
 
 
@@ -108,7 +112,8 @@ def test_polarity_symmetry():
     b = s.simulate(Protocol.dc(-7000.0, 10.0), 4.0, rtol=1e-8)
     t = np.linspace(0, 10, 101)
     assert np.allclose(a.trace(t), b.trace(t), rtol=1e-6, atol=1e-12)
-    assert np.allclose(a.q_z[-1], -b.q_z[-1], rtol=1e-6)
+    assert np.allclose(a.q_f[-1], -b.q_f[-1], rtol=1e-6)
+    assert np.allclose(a.y_end[2:-2], -b.y_end[2:-2], rtol=1e-5, atol=1e-12)
 
 
 def test_front_layer_width_is_a_continuum_property():
@@ -123,14 +128,20 @@ def test_front_layer_width_is_a_continuum_property():
     assert np.all(np.diff(w[161]) < 0) and w[161][0] > 5 * frozen.u0(frozen.as_model(p))
 
 
-def test_returning_front_finds_its_layer():
-    """Under a unipolar train the front leaves and comes back every period: with beta_f = 0
-    its layer is renewed with zipped charge both ways and the per-period peak is lost
-    faster than with beta_f = 1 (the layer's own deficit comes back)."""
+def test_a_front_advancing_into_charged_material_finds_its_history():
+    """After 10 s of DC the voltage steps up: the front advances millimetres into material
+    that was never zipped (little charge), then creeps back through material zipped at
+    the step. The material points keep that history; the uniform zipped charge of the
+    previous surrogates did not (11.8 % RMS, the stroke 0.2 mm short)."""
+    from reduced.compare import rms_difference
     p = preset("vshape-table1")
-    proto = Protocol.single(Unipolar(5500.0, 5.0, 0.5), 20.0)
-    speeds = [hold_speed(reduced.charge(p, beta_f=b).simulate(proto, 4.0), proto) for b in (0.0, 1.0)]
-    assert speeds[0] > 1.5 * speeds[1] > 0
+    proto = Protocol([Protocol.dc(5000.0, 10.0).stages[0], Protocol.dc(6500.0, 10.0).stages[0]])
+    f = simulate(p, proto, load=4.0)
+    r = reduced.charge(p).simulate(proto, 4.0)
+    assert rms_difference(r.trace, f.trace) / (f.trace.max() - f.trace.min()) < 0.01
+    # the uniform zipped history (no material points) misses it by an order more
+    r0 = reduced.charge(p, n_points=0).simulate(proto, 4.0)
+    assert rms_difference(r0.trace, f.trace) > 5 * rms_difference(r.trace, f.trace)
 
 
 def test_hold_speed_of_a_square_wave_is_the_peaks_drift():
@@ -168,7 +179,8 @@ def test_repeated_runs_keep_only_their_inputs():
     a, b = s.simulate(proto, 5.0), s.simulate(proto, 5.0)
     assert len(s._inputs) == 1 and np.array_equal(a.rec, b.rec)
     assert a.unzipping_speed == b.unzipping_speed
-    assert np.array_equal(a.y_end[:4], a.rec[-1, 1:5]) and not hasattr(s, "y_end")
+    from dfa_model import surrogate_kernel as sk
+    assert a.y_end[sk.X] == a.rec[-1, sk.R_X] and a.y_end[sk.QF] == a.rec[-1, sk.R_QF] and not hasattr(s, "y_end")
     proto.stages[0].waveform.frequency = 20.0      # mutated in place: a new key
     proto.stages[1].duration = 3.0
     c = s.simulate(proto, 5.0)
@@ -177,7 +189,7 @@ def test_repeated_runs_keep_only_their_inputs():
     assert np.array_equal(c.rec, fresh.rec) and c.trace.t1 == 6.0
     # continuing from y_end is one run split in two
     d = s.simulate(Protocol.dc(6000.0, 1.0), 5.0, y0=c.y_end)
-    assert d.x[0] == c.x[-1] and d.q_z[0] == c.q_z[-1]
+    assert d.x[0] == c.x[-1] and d.q_f[0] == c.q_f[-1]
 
 
 def test_save_load_roundtrip(fitted, tmp_path):
@@ -203,8 +215,8 @@ def test_bad_input_errors():
         s.simulate(Protocol.dc(6000, 1), 5.0, y0={"x": 1.0})
     with pytest.raises(ValueError, match="family"):
         reduced.build(preset("vshape-table1"), "pod")
-    with pytest.raises(ValueError, match="law"):
-        reduced.charge(preset("vshape-table1").replace(law="linear"))
+    with pytest.raises(ValueError, match="scheme"):
+        reduced.charge(preset("vshape-table1").replace(scheme="paper"))
 
 
 def test_works_without_slycot(monkeypatch):

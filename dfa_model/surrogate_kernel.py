@@ -1,0 +1,779 @@
+"""The compiled integrator of the low-order surrogates (reduced/): a stroke, the front
+layer that carries the force, and a few material points that carry the charge history.
+
+Why this shape (README, 'Surrogates'): the interface charge belongs to the material. The
+force acts through the material just beyond the zipping front, whose response the front
+layer reproduces (its rates moment-matched to the full model's force-weighted charge at
+each frozen stroke, reduced/frozen.py); but when the front moves, the layer is renewed
+by the material it moves onto, and that material's charge depends on its history (zipped
+at a voltage step ten seconds ago, or never). A few material points spread over the
+electrode keep that history. Between them and the layer, a wake on each side of the
+front: the zipped material just behind the layer and the unzipped material just ahead,
+each a band c_w w_f wide. A front that moves renews the layer from the wake it moves
+into, that wake from the nearest material point beyond it, and the other wake from the
+layer it leaves: a front that turns back finds the material it just swept, not a point
+millimetres away (one uniform zipped charge, as before, renewed a retreating front with
+material zipped long ago; renewing the layer from the points directly locked a front that
+turned back into running away from the charge it had just left).
+
+Every charge state is a material point with pointwise physics, the full model's own
+(dfa_model.nodal): for an inverse gap 1/u and a screening thickness T0',
+
+    sigma_l = (eps_l V_d - T0' q) / u,   J_l = law(sigma_l / eps_l) (equations.j_of_E),
+    dP/dt   = (chi_p sigma_l - P) / tau_p                (polarization branch),
+    dq/dt   = J_l - (sigma_l + q) / tau_f + dP/dt,
+
+q the charge the electrostatics see (q' of the nodal scheme). Material points sit at
+their own gap (a column per point); the front layer is an effective point whose gap and
+T0' reproduce its moment-matched rates (frozen.front_layer). The force is the full
+model's quadratic map of the layer's (V, q, P); behind a series resistance R_s the device
+voltage V_d is a state: C(x) dV_d/dt = (V - V_d)/R_s - (its motion and charge currents).
+
+State y (NY = NODE0 + 2 n + 2; a state the actuator does not have stays 0):
+
+    X, VEL, VD, QF, PF      stroke, velocity (a mass), V_d (R_s), layer charge and polarization
+    QB, PB, QA, PA          the wakes: the zipped material just behind the layer and the
+                            unzipped material just ahead of it (charge, polarization)
+    NODE0 + i               material point i's charge, i < n (at s_i = i l_e / (n - 1))
+    NODE0 + n + i           its polarization
+    NY - 2, NY - 1          the inputs V and F, states with a constant slope on each segment
+
+Steps: the Rosenbrock-W pair of Shampine's ode23s (L-stable, order 2, error at order 3),
+restarted at every input breakpoint; the stops at 0 and x_e are events. The Jacobian:
+forward differences in the core states (stroke, velocity, V_d, layer, inputs) and the
+points' own 2 x 2 blocks in closed form; the linear solves eliminate the points' blocks
+onto the core (the points couple only to the stroke, V_d and, through the renewal, the
+layer), so a step costs O(n).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import njit
+from .equations import j_of_E
+
+# state indices
+X, VEL, VD, QF, PF, QB, PB, QA, PA = range(9)
+NODE0 = 9
+NCORE = 11         # X .. PA and the inputs V, F (at NY - 2, NY - 1)
+# table columns (per stroke grid point); the material points' inverse gaps follow
+C0, C1, C2, PAA, IUF, T0F, WF, DLZ, LZ, CAP, I0, I1, J0, J1, IUA = range(15)
+NFIX = 15
+# parameters
+(P_XE, P_B, P_M, P_K, P_RS, P_CHI, P_TAUP, P_TAUF, P_EPSL, P_T0, P_ICELL, P_AVG, P_N, P_LE, P_ITAUL,
+ P_CONST, P_IWB, P_IU0, P_VS) = range(19)
+NPAR = 19
+# record columns
+R_T, R_X, R_V, R_QF, R_PF, R_VD, R_VOLT, R_F, R_I, R_FE = range(10)
+NREC = 10
+# status
+OK, FULL, MAX_STEPS, NONFINITE = 0, 1, 2, 3
+FREE, HELD, AUTO = 0, 1, 2
+
+
+@njit(cache=True)
+def table_row(tab, xe, x, rw):
+    """The maps at stroke x (clamped to [0, x_e]): cubic Hermite with centred slopes, so
+    that the force and the renewal (the front's lever and the layer's width) have
+    continuous slopes in x: with linear pieces they jumped at every grid point, and a
+    Rosenbrock stage a few micrometres off the step's start saw the stiff mechanics
+    answer that jump (the error estimate grew by up to 1000 during a slow creep). The
+    material points' gaps, which enter only their own slow rates, are linear."""
+    n = tab.shape[0]
+    u = min(max(x, 0.0), xe) / xe * (n - 1)
+    i = int(u)
+    if i > n - 2:
+        i = n - 2
+    f = u - i
+    f2 = f * f
+    f3 = f2 * f
+    h00 = 2.0 * f3 - 3.0 * f2 + 1.0
+    h10 = f3 - 2.0 * f2 + f
+    h01 = -2.0 * f3 + 3.0 * f2
+    h11 = f3 - f2
+    for c in range(NFIX):
+        a, b = tab[i, c], tab[i + 1, c]
+        ma = 0.5 * (b - tab[i - 1, c]) if i > 0 else b - a            # slopes per grid step
+        mb = 0.5 * (tab[i + 2, c] - a) if i + 2 < n else b - a
+        rw[c] = h00 * a + h10 * ma + h01 * b + h11 * mb
+    # the material points' gaps enter only their own (slow) rates: linear pieces do
+    for c in range(NFIX, tab.shape[1]):
+        rw[c] = tab[i, c] * (1.0 - f) + tab[i + 1, c] * f
+
+
+@njit(cache=True, inline="always")
+def _point(par, law, lawp, Vd, W, q, P, iu, t0p, out):
+    """A material point's rates: out = [dq/dt, dP/dt, d(dq)/dq, d(dq)/dP, d(dP)/dq, d(dP)/dP]."""
+    eps_l, itf = par[P_EPSL], 1.0 / par[P_TAUF]
+    sl = (eps_l * Vd - t0p * q) * iu
+    if par[P_CONST] != 0.0:
+        dJ = par[P_ITAUL]
+        Jl = sl * dJ
+    elif par[P_AVG] > 0.0:
+        # averaged mode: the law's conductance at the drive's RMS field (the field's sign
+        # alternates within a period; its magnitude is what the law sees)
+        E = math.sqrt(W) * iu
+        hE = 1e-6 * abs(E) + 1e-3
+        dJ = j_of_E(law, lawp, E) / (E * eps_l) if E > hE else \
+            (j_of_E(law, lawp, hE) - j_of_E(law, lawp, -hE)) / (2.0 * hE * eps_l)
+        Jl = sl * dJ
+    else:
+        E = sl / eps_l
+        Jl = j_of_E(law, lawp, E)
+        hE = 1e-6 * abs(E) + 1e-3
+        dJ = (j_of_E(law, lawp, E + hE) - j_of_E(law, lawp, E - hE)) / (2.0 * hE) / eps_l
+    g = Jl - (sl + q) * itf
+    t0u = t0p * iu
+    dg = -dJ * t0u - (1.0 - t0u) * itf
+    chi = par[P_CHI]
+    if chi > 0.0:
+        itp = 1.0 / par[P_TAUP]
+        Pd = (chi * sl - P) * itp
+        out[0] = g + Pd
+        out[1] = Pd
+        out[2] = dg - chi * t0u * itp
+        out[3] = -itp
+        out[4] = -chi * t0u * itp
+        out[5] = -itp
+    else:
+        out[0] = g
+        out[1] = 0.0
+        out[2] = dg
+        out[3] = 0.0
+        out[4] = 0.0
+        out[5] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _zipped_mean(y, rw, par, n):
+    """The mean charge of the zipped material points (the layer's without any)."""
+    h = par[P_LE] / (n - 1) if n > 1 else 0.0
+    qz = 0.0
+    nz = 0
+    for i in range(n):
+        if i * h <= rw[LZ]:
+            qz += y[NODE0 + i]
+            nz += 1
+    return qz / nz if nz > 0 else y[QF]
+
+
+@njit(cache=True, inline="always")
+def _points(y, W, par, law, lawp, ydot, rw, pt, jn, n, NY):
+    """The material points' rates into ydot (their 2 x 2 blocks into jn when jn has rows)
+    at the maps' row rw; returns the zipped points' mean charge (the conduction current)."""
+    Vd = y[VD] if par[P_RS] > 0.0 else y[NY - 2]
+    t0 = par[P_T0]
+    store = jn.shape[0] >= n
+    if par[P_CONST] != 0.0 and par[P_CHI] == 0.0:
+        # the common case in a tight loop: dq/dt = c (eps_l V - T0 q) / u - q / tau_f
+        itf = 1.0 / par[P_TAUF]
+        c = par[P_ITAUL] - itf
+        ceV = c * par[P_EPSL] * Vd
+        cT0 = c * t0
+        for i in range(n):
+            iu = rw[NFIX + i]
+            a = -(cT0 * iu + itf)
+            ydot[NODE0 + i] = ceV * iu + a * y[NODE0 + i]
+            ydot[NODE0 + n + i] = 0.0
+            if store:
+                jn[i, 0], jn[i, 1], jn[i, 2], jn[i, 3] = a, 0.0, 0.0, 0.0
+        return _zipped_mean(y, rw, par, n)
+    for i in range(n):
+        _point(par, law, lawp, Vd, W, y[NODE0 + i], y[NODE0 + n + i], rw[NFIX + i], t0, pt)
+        ydot[NODE0 + i] = pt[0]
+        ydot[NODE0 + n + i] = pt[1]
+        if store:
+            jn[i, 0], jn[i, 1], jn[i, 2], jn[i, 3] = pt[2], pt[3], pt[4], pt[5]
+    return _zipped_mean(y, rw, par, n)
+
+
+@njit(cache=True, inline="always")
+def _polarization_force(y, rw, n):
+    """The branch's force over the unzipped length (frozen.polarization_weights): the
+    ahead wake's band and P u linear between the material points."""
+    Fp = rw[PAA] * y[PA] * y[PA]
+    d0, o0 = NFIX + n, NFIX + 2 * n
+    for i in range(n):
+        Pi = y[NODE0 + n + i]
+        Fp += rw[d0 + i] * Pi * Pi
+        if i + 1 < n:
+            Fp += 2.0 * rw[o0 + i] * Pi * y[NODE0 + n + i + 1]
+    return Fp
+
+
+@njit(cache=True, inline="always")
+def _polarization_slopes(y, rw, n, rate, cp):
+    """d(force)/dP_i, times `rate` (the stroke's or velocity's answer to the force), into cp."""
+    d0, o0 = NFIX + n, NFIX + 2 * n
+    for i in range(n):
+        v = 2.0 * rw[d0 + i] * y[NODE0 + n + i]
+        if i + 1 < n:
+            v += 2.0 * rw[o0 + i] * y[NODE0 + n + i + 1]
+        if i > 0:
+            v += 2.0 * rw[o0 + i - 1] * y[NODE0 + n + i - 1]
+        cp[i] = rate * v
+
+
+@njit(cache=True, inline="always")
+def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
+    """The core's rates (stroke, velocity, V_d, layer) into ydot at the maps' row rw, the
+    zipped points' mean charge qz. Returns (force, source current, and the couplings of
+    the wakes to their source points: (ka, ra) the ahead wake's point and rate, (kb, rb)
+    the behind wake's)."""
+    xe = par[P_XE]
+    x = min(max(y[X], 0.0), xe)
+    n = int(par[P_N])
+    V = y[NY - 2]
+    rs = par[P_RS] > 0.0
+    Vd = y[VD] if rs else V
+    avg = par[P_AVG] > 0.0
+    VV = W if avg else Vd * Vd
+    qf, Pf = y[QF], y[PF]
+    Fe = rw[C0] * VV + rw[C1] * Vd * qf + rw[C2] * qf * qf
+    if par[P_CHI] > 0.0 and n >= 2:
+        Fe += _polarization_force(y, rw, n)
+    net = Fe - y[NY - 1] - par[P_K] * x
+    m = par[P_M]
+    if m > 0.0:
+        v = y[VEL]
+        a = (net - par[P_B] * v) / m
+        if mode == HELD or (mode == AUTO and ((y[X] <= 0.0 and v <= 0.0 and a < 0.0)
+                                              or (y[X] >= xe and v >= 0.0 and a > 0.0))):
+            v = 0.0
+            a = 0.0
+        xd = v
+        ydot[VEL] = a
+    else:
+        xd = net / par[P_B]
+        if mode == HELD or (mode == AUTO and ((y[X] <= 0.0 and xd < 0.0) or (y[X] >= xe and xd > 0.0))):
+            xd = 0.0
+        ydot[VEL] = 0.0
+    ydot[X] = xd
+    # the front layer (an effective material point) and its wakes (zipped just behind:
+    # the zipped gap; unzipped just ahead: the band's mean gap), each with its own rates
+    _point(par, law, lawp, Vd, W, qf, Pf, rw[IUF], rw[T0F], pt)
+    ydot[QF] = pt[0]
+    ydot[PF] = pt[1]
+    qb, Pb, qa, Pa = y[QB], y[PB], y[QA], y[PA]
+    _point(par, law, lawp, Vd, W, qb, Pb, par[P_IU0], par[P_T0], pt)
+    ydot[QB] = pt[0]
+    ydot[PB] = pt[1]
+    _point(par, law, lawp, Vd, W, qa, Pa, rw[IUA], par[P_T0], pt)
+    ydot[QA] = pt[0]
+    ydot[PA] = pt[1]
+    # the renewal chain as the front moves at ld = dl_z/dt (module docstring): the layer
+    # over ell = c_ell w_f, the wakes over c_w w_f; the side the front moves to blends
+    # over the speed v_s (par P_VS, all but sharp: blending over creep speeds cost the
+    # creep's physics, 40 % of the unzipping speed at v_s ~ the creep)
+    ld = rw[DLZ] * xd
+    ka, kb = -1, -1
+    ra, rb = 0.0, 0.0
+    if n >= 2 and par[P_ICELL] > 0.0:
+        if side != 0.0:
+            # a side given (linear in the front's speed: an analysis of one branch)
+            sp = side * ld
+            wa = 1.0 if side > 0.0 else 0.0
+        else:
+            vs_ = par[P_VS]
+            root = math.sqrt(ld * ld + vs_ * vs_)
+            sp = root - vs_                              # |ld|, smooth at 0
+            wa = 0.5 * (1.0 + ld / root) if root > 0.0 else 0.5      # the share advancing
+        wb = 1.0 - wa
+        h = par[P_LE] / (n - 1)
+        kb = min(max(int(math.floor(rw[LZ] / h + 1e-12)), 0), n - 1)   # the last zipped point
+        ka = min(kb + 1, n - 1)                                       # the first unzipped one
+        rf = sp * par[P_ICELL] / rw[WF]
+        rw_ = sp * par[P_IWB] / rw[WF]
+        ydot[QF] += rf * (wa * (qa - qf) + wb * (qb - qf))
+        ydot[PF] += rf * (wa * (Pa - Pf) + wb * (Pb - Pf))
+        ra, rb = rw_ * wa, rw_ * wb
+        ydot[QA] += ra * (y[NODE0 + ka] - qa) + rb * (qf - qa)
+        ydot[PA] += ra * (y[NODE0 + n + ka] - Pa) + rb * (Pf - Pa)
+        ydot[QB] += rb * (y[NODE0 + kb] - qb) + ra * (qf - qb)
+        ydot[PB] += rb * (y[NODE0 + n + kb] - Pb) + ra * (Pf - Pb)
+    # the source current: motion of the gap, conduction and charging; behind R_s the
+    # device voltage's own equation, else the capacitive current of the input's ramp
+    rest = xd * (rw[J0] * Vd + rw[J1] * qf) + rw[I0] * Vd + rw[I1] * qz
+    if rs:
+        I = (V - Vd) / par[P_RS]
+        ydot[VD] = (I - rest) / rw[CAP]
+    else:
+        ydot[VD] = 0.0
+        I = rw[CAP] * vdot + rest
+    ydot[NY - 2] = 0.0
+    ydot[NY - 1] = 0.0
+    return Fe, I, ka, ra, kb, rb
+
+
+@njit(cache=True)
+def rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, jn, side=0.0):
+    """dy/dt at y (the inputs' rows: 0, their slopes are set by the caller); W: the mean
+    square drive in averaged mode, else ignored; vdot: the input voltage's slope (the
+    capacitive current). mode FREE, HELD (the stroke rests on a stop) or AUTO (a stop
+    holds it when the force pushes into it); jn: the points' 2 x 2 blocks are stored
+    there if it has a row per point. Returns (electrostatic force, source current, ka,
+    ra, kb, rb: _core_rates)."""
+    xe = par[P_XE]
+    table_row(tab, xe, min(max(y[X], 0.0), xe), rw)
+    n = int(par[P_N])
+    NY = NODE0 + 2 * n + 2
+    qz = _points(y, W, par, law, lawp, ydot, rw, pt, jn, n, NY)
+    return _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side)
+
+
+@njit(cache=True)
+def on_stop(y, W, tab, par, law, lawp, ydot, rw, pt):
+    """HELD if the stroke rests on a stop with the force pushing into it, else FREE."""
+    xe = par[P_XE]
+    if 0.0 < y[X] < xe:
+        return FREE
+    rhs(y, W, 0.0, tab, par, law, lawp, ydot, rw, pt, FREE, np.empty((0, 4)))
+    if y[X] <= 0.0 and ydot[X] <= 0.0 and (par[P_M] == 0.0 or ydot[VEL] <= 0.0):
+        return HELD
+    if y[X] >= xe and ydot[X] >= 0.0 and (par[P_M] == 0.0 or ydot[VEL] >= 0.0):
+        return HELD
+    return FREE
+
+
+@njit(cache=True)
+def _lu(M, piv, n):
+    """LU factorization with partial pivoting of the n x n M, in place."""
+    for k in range(n):
+        p = k
+        for i in range(k + 1, n):
+            if abs(M[i, k]) > abs(M[p, k]):
+                p = i
+        piv[k] = p
+        if p != k:
+            for j in range(n):
+                M[k, j], M[p, j] = M[p, j], M[k, j]
+        d = M[k, k] if M[k, k] != 0.0 else 1e-300
+        for i in range(k + 1, n):
+            M[i, k] /= d
+            f = M[i, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    M[i, j] -= f * M[k, j]
+
+
+@njit(cache=True)
+def _lu_solve(M, piv, b, n):
+    """Solve with _lu's factors: every row interchange first (_lu swaps whole rows, the
+    multipliers of earlier columns included, so the interchanges must all be applied
+    before the forward substitution, not one per column as it goes), then L and U."""
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            b[k], b[p] = b[p], b[k]
+    for k in range(n):
+        for i in range(k + 1, n):
+            b[i] -= M[i, k] * b[k]
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= M[i, j] * b[j]
+        b[i] = s / (M[i, i] if M[i, i] != 0.0 else 1e-300)
+
+
+@njit(cache=True, inline="always")
+def _state(c, NY):
+    """The state index of core slot c (0..NCORE-1): the core states, then the inputs."""
+    return c if c < NODE0 else NY - NCORE + c
+
+
+@njit(cache=True, inline="always")
+def _couple(g, Jb, Bi, k, rate, row, Mc, pos, m):
+    """Eliminate point k's block from the wake's rows row, row + 1 (when they are core
+    slots) that see it at `rate`: subtract (-g rate) Bi_k (-g Jb_k) from them."""
+    if k < 0 or rate == 0.0:
+        return
+    for r in range(2):
+        ri = pos[row + r]
+        if ri < 0:
+            continue
+        for c in range(m):
+            bq = -g * Jb[k, 0, c]
+            bp = -g * Jb[k, 1, c]
+            Mc[ri, c] -= -g * rate * (Bi[k, 2 * r] * bq + Bi[k, 2 * r + 1] * bp)
+
+
+@njit(cache=True)
+def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf):
+    """Factor I - g J: the points' 2 x 2 blocks (inverted into Bi), then the Schur
+    complement of the m active core slots (the wakes' rows see their source points
+    through the renewal; the mechanics' row rf sees every point's P through the
+    polarization's force, at rates cp) into Mc, LU'd."""
+    for i in range(n):
+        a11 = 1.0 - g * Jn[i, 0]
+        a12 = -g * Jn[i, 1]
+        a21 = -g * Jn[i, 2]
+        a22 = 1.0 - g * Jn[i, 3]
+        det = a11 * a22 - a12 * a21
+        if det == 0.0:
+            det = 1e-300
+        Bi[i, 0], Bi[i, 1], Bi[i, 2], Bi[i, 3] = a22 / det, -a12 / det, -a21 / det, a11 / det
+    for r in range(m):
+        for c in range(m):
+            Mc[r, c] = (1.0 if r == c else 0.0) - g * Jc[r, c]
+    _couple(g, Jb, Bi, ka, ra, QA, Mc, pos, m)
+    _couple(g, Jb, Bi, kb, rb, QB, Mc, pos, m)
+    if rf >= 0:
+        for i in range(n):
+            if cp[i] != 0.0:
+                for c in range(m):
+                    Mc[rf, c] -= g * g * cp[i] * (Bi[i, 2] * Jb[i, 0, c] + Bi[i, 3] * Jb[i, 1, c])
+    _lu(Mc, piv, m)
+
+
+@njit(cache=True, inline="always")
+def _uncouple(g, Bi, k, rate, row, b, n, rc, pos):
+    if k < 0 or rate == 0.0:
+        return
+    bq, bp = b[NODE0 + k], b[NODE0 + n + k]
+    for r in range(2):
+        ri = pos[row + r]
+        if ri >= 0:
+            rc[ri] -= -g * rate * (Bi[k, 2 * r] * bq + Bi[k, 2 * r + 1] * bp)
+
+
+@njit(cache=True)
+def _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf):
+    """Solve (I - g J) z = b in place, with the factors of _factor (an inactive core
+    state's row is the identity: its entry stays)."""
+    for r in range(m):
+        rc[r] = b[_state(cl[r], NY)]
+    _uncouple(g, Bi, ka, ra, QA, b, n, rc, pos)      # the points' right-hand sides,
+    _uncouple(g, Bi, kb, rb, QB, b, n, rc, pos)      # eliminated from the wakes' rows
+    if rf >= 0:                                       # and from the mechanics' row
+        for i in range(n):
+            if cp[i] != 0.0:
+                rc[rf] += g * cp[i] * (Bi[i, 2] * b[NODE0 + i] + Bi[i, 3] * b[NODE0 + n + i])
+    _lu_solve(Mc, piv, rc, m)
+    for r in range(m):
+        b[_state(cl[r], NY)] = rc[r]
+    for i in range(n):
+        bq, bp = b[NODE0 + i], b[NODE0 + n + i]
+        for c in range(m):
+            bq -= -g * Jb[i, 0, c] * rc[c]
+            bp -= -g * Jb[i, 1, c] * rc[c]
+        b[NODE0 + i] = Bi[i, 0] * bq + Bi[i, 1] * bp
+        b[NODE0 + n + i] = Bi[i, 2] * bq + Bi[i, 3] * bp
+
+
+@njit(cache=True)
+def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps):
+    """Integrate over the input segments [tb[k], tb[k+1]] (voltage v0[k] + vs[k] (t - tb[k]),
+    force likewise; w2[k] the mean square voltage in averaged mode). Writes one record
+    row per accepted step (and the start) into rec. Returns (status, rows, steps, y)."""
+    n = int(par[P_N])
+    NY = NODE0 + 2 * n + 2
+    nb = max(n, 1)
+    y = y0.copy()
+    F0 = np.empty(NY)
+    F1 = np.empty(NY)
+    F2 = np.empty(NY)
+    k1 = np.empty(NY)
+    k2 = np.empty(NY)
+    k3 = np.empty(NY)
+    yt = np.empty(NY)
+    ft = np.empty(NY)
+    rw = np.empty(tab.shape[1])
+    rw0 = np.empty(tab.shape[1])
+    pt = np.empty(6)
+    Jb0 = np.empty((0, 4))             # "do not store the points' blocks"
+    Jc = np.zeros((NCORE, NCORE))      # the active core slots' rows x columns (compressed)
+    Jb = np.zeros((nb, 2, NCORE))      # the points' rows x the active core columns
+    Jn = np.zeros((nb, 4))             # the points' own 2 x 2 blocks at the step's start
+    Jn2 = np.zeros((nb, 4))            # ... at its end (reused by the next step)
+    Mc = np.empty((NCORE, NCORE))
+    Bi = np.empty((nb, 4))
+    piv = np.empty(NCORE, dtype=np.int64)
+    rc = np.empty(NCORE)
+    cl = np.empty(NCORE, dtype=np.int64)   # the active core slots
+    pos = np.empty(NCORE, dtype=np.int64)  # slot -> its place among them (-1: inactive)
+    cp = np.zeros(nb)                      # the mechanics' row's answer to each point's P
+    pol_force = par[P_CHI] > 0.0 and n >= 2
+    nrec = rec.shape[0]
+    xe = par[P_XE]
+    d = 1.0 / (2.0 + math.sqrt(2.0))
+    e32 = 6.0 + math.sqrt(2.0)
+    # the states this actuator has (the others stay 0: no error, no Jacobian column)
+    active = np.zeros(NY, dtype=np.bool_)
+    active[X] = True
+    active[VEL] = par[P_M] > 0.0
+    active[VD] = par[P_RS] > 0.0
+    active[QF] = True
+    active[PF] = par[P_CHI] > 0.0
+    chain = n >= 2 and par[P_ICELL] > 0.0
+    active[QB] = chain
+    active[QA] = chain
+    active[PB] = chain and par[P_CHI] > 0.0
+    active[PA] = chain and par[P_CHI] > 0.0
+    for i in range(n):
+        active[NODE0 + i] = True
+        active[NODE0 + n + i] = par[P_CHI] > 0.0
+    steps = 0
+    mode = FREE
+    side = 0.0          # the renewal takes the side the front moves to (rhs's side argument: 0)
+    h = h0
+    y[NY - 2] = v0[0]
+    y[NY - 1] = f0[0]
+    Fe, I, ka, ra, kb, rb = rhs(y, w2[0], vs[0], tab, par, law, lawp, F0, rw, pt, AUTO, Jb0)
+    _record(rec, 0, tb[0], y, I, Fe, NY)
+    row = 1
+    for seg in range(len(v0)):
+        t = tb[seg]
+        t_end = tb[seg + 1]
+        y[NY - 2] = v0[seg]
+        y[NY - 1] = f0[seg]
+        W = w2[seg]
+        vd = vs[seg]
+        m = 0
+        for c in range(NCORE):
+            on = active[c] if c < NODE0 else (vs[seg] != 0.0 if c == NCORE - 2 else fs[seg] != 0.0)
+            pos[c] = m if on else -1
+            if on:
+                cl[m] = c
+                m += 1
+        F0[NY - 2] = vs[seg]
+        F0[NY - 1] = fs[seg]
+        have = False        # ft, Jn, rw0 and the couplings hold f at y (free): the last stage's
+        while t < t_end - 1e-13 * max(abs(t_end), 1.0):
+            if steps >= max_steps:
+                return MAX_STEPS, row, steps, y
+            hs = h
+            last = False
+            if t + 1.1 * hs >= t_end:
+                hs = t_end - t
+                last = True
+            mode = on_stop(y, W, tab, par, law, lawp, ft, rw, pt)
+            if not (have and mode == FREE):
+                Fe, I, ka, ra, kb, rb = rhs(y, W, vd, tab, par, law, lawp, ft, rw, pt, mode, Jn, side)
+                for c in range(rw.shape[0]):
+                    rw0[c] = rw[c]
+            for i in range(NY - 2):
+                F0[i] = ft[i]
+            # the Jacobian: forward differences in the active core columns, the points'
+            # blocks in closed form (their own rates), the wakes' coupling to their source
+            # points. Only the stroke's column moves the maps and only the stroke's, the
+            # input voltage's and V_d's move the points: the others difference the core
+            # alone, at the same maps' row
+            qz0 = _zipped_mean(y, rw0, par, n)
+            for ci in range(m):
+                c = cl[ci]
+                j = _state(c, NY)
+                # the step follows the state's sign: the difference is then mirrored
+                # under V -> -V (odd physics, the same steps for either polarity)
+                dj = 1e-7 * max(abs(y[j]), sc[j])
+                if y[j] < 0.0:
+                    dj = -dj
+                if j == X and y[X] >= xe:
+                    dj = -dj
+                for i in range(NY):
+                    yt[i] = y[i]
+                yt[j] += dj
+                moves = j == X or j == NY - 2 or j == VD
+                if j == X:
+                    rhs(yt, W, vd, tab, par, law, lawp, k1, rw, pt, mode, Jb0, side)
+                elif moves:
+                    qzj = _points(yt, W, par, law, lawp, k1, rw0, pt, Jb0, n, NY)
+                    _core_rates(yt, W, vd, par, law, lawp, k1, rw0, pt, mode, qzj, NY, side)
+                else:
+                    _core_rates(yt, W, vd, par, law, lawp, k1, rw0, pt, mode, qz0, NY, side)
+                for ri in range(m):
+                    r = _state(cl[ri], NY)
+                    Jc[ri, ci] = (k1[r] - ft[r]) / dj if r < NY - 2 else 0.0
+                for i in range(n):
+                    if moves:
+                        Jb[i, 0, ci] = (k1[NODE0 + i] - ft[NODE0 + i]) / dj
+                        Jb[i, 1, ci] = (k1[NODE0 + n + i] - ft[NODE0 + n + i]) / dj
+                    else:
+                        Jb[i, 0, ci] = 0.0
+                        Jb[i, 1, ci] = 0.0
+            if mode == HELD:
+                F0[X] = 0.0
+                F0[VEL] = 0.0
+                for ci in range(m):
+                    for c in (X, VEL):
+                        if pos[c] >= 0:
+                            Jc[pos[c], ci] = 0.0
+                            Jc[ci, pos[c]] = 0.0
+                for i in range(n):
+                    Jb[i, 0, pos[X]] = 0.0
+                    Jb[i, 1, pos[X]] = 0.0
+            # the polarization's force couples the mechanics' row to every point's P
+            rf = -1
+            if pol_force and mode == FREE:
+                rf = pos[VEL] if par[P_M] > 0.0 else pos[X]
+                _polarization_slopes(y, rw0, n, 1.0 / (par[P_M] if par[P_M] > 0.0 else par[P_B]), cp)
+            tries = 0
+            while True:
+                steps += 1
+                g = d * hs
+                _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf)
+                for i in range(NY):
+                    k1[i] = F0[i]
+                _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, rf)
+                for i in range(NY):
+                    yt[i] = y[i] + 0.5 * hs * k1[i]
+                rhs(yt, W, vd, tab, par, law, lawp, F1, rw, pt, mode, Jb0, side)
+                F1[NY - 2] = vs[seg]
+                F1[NY - 1] = fs[seg]
+                for i in range(NY):
+                    k2[i] = F1[i] - k1[i]
+                _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, rf)
+                for i in range(NY):
+                    k2[i] += k1[i]
+                    yt[i] = y[i] + hs * k2[i]
+                Fe2, I2, ka2, ra2, kb2, rb2 = rhs(yt, W, vd, tab, par, law, lawp, F2, rw, pt, mode, Jn2, side)
+                F2[NY - 2] = vs[seg]
+                F2[NY - 1] = fs[seg]
+                for i in range(NY):
+                    k3[i] = F2[i] - e32 * (k2[i] - F1[i]) - 2.0 * (k1[i] - F0[i])
+                _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, rf)
+                err = 0.0
+                for i in range(NY - 2):
+                    if active[i]:
+                        e = hs / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i]) / (rtol * (abs(y[i]) + sc[i]))
+                        err = max(err, abs(e))
+                if not (err == err):
+                    return NONFINITE, row, steps, y
+                if err <= 1.0:
+                    # a step that crosses a stop is shortened to end on it (an event)
+                    over = 0.0
+                    if yt[X] < 0.0 < y[X]:
+                        over = y[X] / (y[X] - yt[X])
+                    elif yt[X] > xe > y[X]:
+                        over = (xe - y[X]) / (yt[X] - y[X])
+                    if over == 0.0 or tries >= 6 or (yt[X] < 0.0 and yt[X] > -1e-9 * xe) \
+                            or (yt[X] > xe and yt[X] < xe * (1.0 + 1e-9)):
+                        break
+                    tries += 1
+                    hs *= min(max(over, 1e-3), 0.999) * 1.0001 if tries < 4 else 1.0001 * over
+                    last = False
+                    continue
+                hs *= max(0.1, 0.9 / err ** (1.0 / 3.0))
+                h = hs
+                last = False
+                if steps >= max_steps:
+                    return MAX_STEPS, row, steps, y
+            for i in range(NY):
+                y[i] = yt[i]
+            clipped = False
+            if y[X] < 0.0:
+                y[X] = 0.0
+                clipped = True
+                if y[VEL] < 0.0:
+                    y[VEL] = 0.0
+            elif y[X] > xe:
+                y[X] = xe
+                clipped = True
+                if y[VEL] > 0.0:
+                    y[VEL] = 0.0
+            t = t_end if last else t + hs
+            if last:   # land exactly on the breakpoint's inputs
+                y[NY - 2] = v0[seg] + vs[seg] * (t_end - tb[seg])
+                y[NY - 1] = f0[seg] + fs[seg] * (t_end - tb[seg])
+            if row >= nrec:
+                return FULL, row, steps, y
+            # the last stage is f at the new state: the next step's start (first same as
+            # last), unless the inputs moved (a breakpoint), a stop clipped it or held it
+            have = not (clipped or last or mode == HELD)
+            if have:
+                for i in range(NY - 2):
+                    ft[i] = F2[i]
+                for i in range(n):
+                    for c in range(4):
+                        Jn[i, c] = Jn2[i, c]
+                for c in range(rw.shape[0]):
+                    rw0[c] = rw[c]
+                ka, ra, kb, rb = ka2, ra2, kb2, rb2
+                Fe, I = Fe2, I2
+            else:
+                Fe, I, _, _, _, _ = rhs(y, W, vd, tab, par, law, lawp, k1, rw, pt, AUTO, Jb0)
+            _record(rec, row, t, y, I, Fe, NY)
+            row += 1
+            h_new = hs * min(5.0, max(0.2, 0.9 / max(err, 1e-12) ** (1.0 / 3.0)))
+            h = max(h, h_new) if last else h_new
+            for i in range(NY):
+                if not (y[i] == y[i]):
+                    return NONFINITE, row, steps, y
+    return OK, row, steps, y
+
+
+@njit(cache=True, inline="always")
+def _record(rec, row, t, y, I, Fe, NY):
+    rec[row, R_T], rec[row, R_X], rec[row, R_V], rec[row, R_QF], rec[row, R_PF] = t, y[X], y[VEL], y[QF], y[PF]
+    rec[row, R_VD], rec[row, R_VOLT], rec[row, R_F], rec[row, R_I], rec[row, R_FE] = y[VD], y[NY - 2], y[NY - 1], I, Fe
+
+
+@njit(cache=True)
+def evaluate(y, W, vdot, tab, par, law, lawp, ydot, mode):
+    """rhs for callers outside the integrator (python-control): returns (force, current)."""
+    rw = np.empty(tab.shape[1])
+    pt = np.empty(6)
+    Fe, I, _, _, _, _ = rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, np.empty((0, 4)))
+    return Fe, I
+
+
+@njit(cache=True)
+def pi_loop(y0, tab, par, law, lawp, sc, rtol, ctl, n, half, max_steps, out):
+    """A sampled PI loop on the stroke closed around the surrogate, all compiled (the
+    fast closed-loop path: reduced.holding.simulate_hold_surrogate). Every dt: read the
+    stroke, set the amplitude A = v_ff + kp e + integral (clamped to [0, v_max], the
+    integral frozen while clamped against the error), apply +-A (the polarity flips
+    every `half` steps; half = 0: DC) and the force F over [k dt, (k + 1) dt]; n steps,
+    n + 1 reads (the last: no step after it).
+    ctl = [x_ref, kp, ki, v_ff, v_max, dt, F]. out[k] = (t_k, x_k, A_k, V_k, I_k): the
+    stroke and the source current read at the step's start. Returns (status, steps taken by the loop, integrator steps, y)."""
+    n_ = int(par[P_N])
+    NY = NODE0 + 2 * n_ + 2
+    x_ref, kp, ki, v_ff, v_max, dt, F = ctl[0], ctl[1], ctl[2], ctl[3], ctl[4], ctl[5], ctl[6]
+    tb = np.empty(2)
+    v0 = np.empty(1)
+    vs = np.zeros(1)
+    f0 = np.empty(1)
+    fs = np.zeros(1)
+    w2 = np.empty(1)
+    rec = np.empty((4096, NREC))
+    y = y0.copy()
+    acc = 0.0
+    total = 0
+    I = 0.0
+    # each sample restarts the integrator: with a first step of a whole sample, a hold
+    # at rest takes one step per sample (a rejected one halves it, as always)
+    h0 = dt
+    for k in range(n + 1):
+        x = min(max(y[X], 0.0), par[P_XE])
+        e = x_ref - x
+        a_new = acc + ki * dt * e
+        A = v_ff + kp * e + a_new
+        if A > v_max:
+            A = v_max
+            if e < 0.0:
+                acc = a_new
+        elif A < 0.0:
+            A = 0.0
+            if e > 0.0:
+                acc = a_new
+        else:
+            acc = a_new
+        sgn = 1.0
+        if half > 0 and (k // half) % 2 == 1:
+            sgn = -1.0
+        V = sgn * A
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3], out[k, 4] = k * dt, x, A, V, I
+        if k == n:
+            break
+        tb[0], tb[1] = k * dt, (k + 1) * dt
+        v0[0], f0[0], w2[0] = V, F, V * V
+        y[NY - 2], y[NY - 1] = V, F
+        status, rows, steps, y = integrate(tb, v0, vs, f0, fs, w2, y, tab, par, law, lawp, sc, rtol, h0, rec,
+                                           max_steps)
+        total += steps
+        if status != OK:
+            return status, k, total, y
+        I = rec[rows - 1, R_I]
+    return OK, n, total, y

@@ -1,0 +1,116 @@
+"""The surrogate where control engineers take it: python-control at default settings,
+the compiled closed loop against the full model's, the hold's control step, the CLI's
+executor, the lumped family's own statics."""
+import dataclasses
+import subprocess
+import sys
+import warnings
+
+import control
+import numpy as np
+import pytest
+
+import reduced
+from dfa_model import PhysicsWarning, Protocol, preset
+from reduced import holding
+
+
+@pytest.fixture(scope="module")
+def s():
+    return reduced.charge(preset("vshape-table1"))
+
+
+def test_scaled_system_is_accurate_at_default_tolerances(s):
+    T = np.linspace(0, 10, 501)
+    U = np.vstack([np.full_like(T, 6000.0), np.full_like(T, 4.0)])
+    ref = s.simulate(Protocol.dc(6000.0, 10.0), 4.0, rtol=1e-8)
+    rng = ref.trace.max() - ref.trace.min()
+    err = {}
+    for scaled in (True, False):
+        r = control.input_output_response(s.system(scaled=scaled), T, U, X0=np.zeros(s.n_states))
+        err[scaled] = np.max(np.abs(r.outputs[0] - ref.trace(T)))
+    assert err[True] < 0.015 * rng           # 1 % of the range at python-control's defaults
+    assert err[True] < 0.5 * err[False]      # and scaling is what does it
+
+
+def test_systems_carry_names_and_units(s):
+    sys_ = s.system()
+    assert sys_.output_labels == ["stroke", "current_no_ramp", "capacitance"]
+    assert sys_.units["stroke"] == "m" and sys_.state_units["x"] == "m" and sys_.state_units["q_f"] == "C/m^2"
+    lin = s.linearize(6000.0, 4.0)
+    g = lin["stroke", "voltage"]                     # names survive the linearization
+    assert float(np.real(control.dcgain(g))) != 0.0
+    assert lin.state_labels == s.state_names and lin.units["voltage"] == "V"
+    mech = s.linearize(6000.0, 4.0, freeze_charge=True)
+    gx = float(np.real(control.dcgain(mech["stroke", "voltage"])))
+    assert gx > 0                                    # more voltage, more stroke at fixed charge
+    # the SI linearization's gain is the compiled path's finite difference
+    dV = 20.0
+    x1 = s.equilibrium(6000.0 + dV, 4.0)[0]
+    x0 = s.equilibrium(6000.0 - dV, 4.0)[0]
+    assert gx == pytest.approx((x1 - x0) / (2 * dV), rel=0.02)
+
+
+def test_degenerate_linearization_warns(s):
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        s.linearize(100.0, 4.0)                      # cannot zip: rests on x = 0
+    assert any(issubclass(x.category, PhysicsWarning) and "stop" in str(x.message) for x in w)
+
+
+def test_equilibrium_is_bounded_and_names_bad_states(s):
+    xs = s.equilibrium(6000.0, 4.0)
+    assert 0.0 < xs[0] < s.x_e
+    with pytest.raises(ValueError, match="unknown state 'q_z'"):
+        s.equilibrium(6000.0, 4.0, {"q_z": 1e-5})
+
+
+def test_compiled_closed_loop_tracks_like_the_full_model(s):
+    p = s.params
+    c = holding.tune_hold_controller(s, 0.8e-3, 4.0, frequency=10.0)
+    cc = dataclasses.replace(c, mode="bipolar")
+    rs = holding.simulate_hold_surrogate(s, cc, duration=30.0)
+    rf = holding.simulate_hold(p, cc, duration=30.0)
+    ms, mf = rs.metrics(c.x_ref, period=0.1), rf.metrics(c.x_ref, period=0.1)
+    assert len(rs.t) == len(rf.t) and np.allclose(rs.t, rf.t)
+    # tracking error within 20 % of the full model's (the issue's goal)
+    assert ms["rms_dev"] == pytest.approx(mf["rms_dev"], rel=0.2)
+    assert ms["mean_abs_V"] == pytest.approx(mf["mean_abs_V"], rel=0.01)
+    # the same gains on a DC amplitude: the full model cannot hold (the charge under DC
+    # turns the loop into a growing oscillation); the surrogate must predict that
+    cd = dataclasses.replace(c, mode="dc")
+    ds = holding.simulate_hold_surrogate(s, cd, duration=60.0).metrics(c.x_ref, period=1.0)
+    df = holding.simulate_hold(p, cd, duration=60.0).metrics(c.x_ref, period=1.0)
+    assert df["rms_dev"] > 100 * mf["rms_dev"] and ds["rms_dev"] > 100 * ms["rms_dev"]
+    assert 0.5 < ds["rms_dev"] / df["rms_dev"] < 2.0
+    with pytest.raises(ValueError, match="F: the compiled loop takes a constant load"):
+        holding.simulate_hold_surrogate(s, c, F=lambda t: 4.0, duration=1.0)
+
+
+def test_hold_control_step_fits_the_frequency(s):
+    for f in (10.0, 30.0, 7.0, 0.5):
+        dt = holding.control_step(f)
+        half = 1.0 / (2 * f)
+        assert dt <= holding.DT_MAX + 1e-15 and abs(half / dt - round(half / dt)) < 1e-9
+    c = holding.tune_hold_controller(s, 0.8e-3, 4.0, frequency=30.0)      # failed after tuning before
+    assert c.dt == pytest.approx(1 / 120)
+    with pytest.raises(ValueError, match="whole number of control steps"):
+        holding.tune_hold_controller(s, 0.8e-3, 4.0, frequency=30.0, dt_control=0.01)
+
+
+def test_lumped_design_is_measured_against_its_own_statics():
+    from reduced.design import _Scan
+    lumped = reduced.build(preset("vshape-table1"), "lumped")
+    scan = _Scan(lumped, 6000.0, 5.0, 0.5, 10.0, 3e-4, True, 1.0, 1e-4, 1e-5)
+    assert scan.x_static_model == pytest.approx(float(lumped.equilibrium(6000.0, 5.0)[0]))
+    assert scan.x_static_model != pytest.approx(1.0)
+
+
+def test_reduce_with_workers_exits_cleanly(tmp_path):
+    out = tmp_path / "act.json"
+    r = subprocess.run([sys.executable, "-m", "dfa_model.cli", "reduce", "--preset", "vshape-table1", "--family",
+                        "lumped", "--workers", "2", "--quiet", "--out", str(out)], capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "Exception ignored" not in r.stderr and "Traceback" not in r.stderr
+    assert out.exists()
