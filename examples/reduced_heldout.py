@@ -40,9 +40,9 @@ def draw_devices(seed: int):
     rng = np.random.default_rng(seed)
     f = lambda: float(rng.uniform(0.7, 1.3))
     v = preset("vshape-table1")
-    dv = v.replace(l=v.l * f(), a=v.a * f(), w=v.w * f(), t_f=v.t_f * f(), eps_r_l=v.eps_r_l * f(),
-                   rho_l=v.rho_l * f(), b=v.b * f())
-    dv = dv.replace(l_e=min(v.l_e * f(), 0.9 * dv.l))
+    l, a = v.l * f(), v.a * f()
+    dv = v.replace(l=l, a=a, l_e=min(v.l_e * f(), 0.95 * (l - a)), w=v.w * f(), t_f=v.t_f * f(),
+                   eps_r_l=v.eps_r_l * f(), rho_l=v.rho_l * f(), b=v.b * f())
     pz = preset("peano-fig10")
     dp = pz.replace(t_f=pz.t_f * f(), eps_r_l=pz.eps_r_l * f(), rho_l=pz.rho_l * f(), b=pz.b * f(), N=161)
     return {"V-shaped (random)": dv, "Peano (random)": dp}
