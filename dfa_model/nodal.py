@@ -28,7 +28,7 @@ from ._jit import njit
 
 from .equations import (B, C_LAYOUT, C_M, C_NBORD, C_POL, C_RS, CHI_P, DS, EPS_L, MASS, R_S, T0, TAU_F, TAU_P, U0, W,
                         X_E, XSC,
-                        j_of_E, mech_jacobian,
+                        j_and_slope, j_of_E, mech_jacobian,
                         mech_rhs, stroke_velocity, write_outputs)
 from .kinematics import front_slope, kin_eval, profile
 
@@ -119,10 +119,7 @@ def _g(law, lawp, const, mat, V, qs, u, itau_l, itau_f):
         dJ = itau_l
         Jl = sl * dJ
     else:
-        E = sl / eps_l
-        Jl = j_of_E(law, lawp, E)
-        hE = 1e-6 * abs(E) + 1e-3
-        dJ = (j_of_E(law, lawp, E + hE) - j_of_E(law, lawp, E - hE)) / (2.0 * hE) / eps_l
+        Jl, dJ = j_and_slope(law, lawp, sl / eps_l, eps_l)
     g = Jl - (sl + qs) * itau_f
     t0u = t0 * iu
     dg = -dJ * t0u - (1.0 - t0u) * itau_f

@@ -52,7 +52,7 @@ import math
 import numpy as np
 
 from ._jit import njit
-from .equations import j_of_E
+from .equations import j_and_slope, j_of_E
 
 # state indices
 X, VEL, VD, QF, PF, QB, PB, QA, PA = range(9)
@@ -120,10 +120,7 @@ def _point(par, law, lawp, Vd, W, q, P, iu, t0p, out):
             (j_of_E(law, lawp, hE) - j_of_E(law, lawp, -hE)) / (2.0 * hE * eps_l)
         Jl = sl * dJ
     else:
-        E = sl / eps_l
-        Jl = j_of_E(law, lawp, E)
-        hE = 1e-6 * abs(E) + 1e-3
-        dJ = (j_of_E(law, lawp, E + hE) - j_of_E(law, lawp, E - hE)) / (2.0 * hE) / eps_l
+        Jl, dJ = j_and_slope(law, lawp, sl / eps_l, eps_l)
     g = Jl - (sl + q) * itf
     t0u = t0p * iu
     dg = -dJ * t0u - (1.0 - t0u) * itf

@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from dfa_model import DC, Bipolar, Load, PhysicsWarning, Protocol, Stage, Unipolar, preset, simulate
+from dfa_model import DC, Bipolar, Load, PhysicsWarning, Protocol, Stage, Unipolar, preset
 from dfa_model.waveforms import Sampled
 import reduced
-from reduced.compare import hold_speed, rms_difference
+from reduced.compare import compare
 
 warnings.simplefilter("ignore", PhysicsWarning)
 E6 = 5.84e7      # V/m: the paper's field scale for the Eq. (21) law
@@ -68,18 +68,16 @@ def drives(V, F, seed):
 
 
 def row(dev, phys, name, p, proto, load):
-    full = simulate(p, proto, load=load)
     s = reduced.charge(p)
-    red = s.simulate(proto, load)
-    rng = float(full.trace.max() - full.trace.min())
-    rms = rms_difference(red.trace, full.trace) / rng if rng > 0 else float("nan")
+    c = compare(s, proto, load)            # the full model and the surrogate, the same metrics
     dc = name in ("reset+DC", "V step", "staircase+load")
-    us_f, us_r = hold_speed(full, proto), hold_speed(red, proto)
+    us_f, us_r = c["unzipping_speed_full"], c["unzipping_speed_reduced"]
     speed = (us_r / us_f - 1.0) if dc and us_f > 1e-6 else None
-    red._x_static = full.x_static       # the drift against the same (exact) statics
-    d_f, d_r = float(full.drift), float(red.drift)
+    d_f, d_r = c["drift_full"], c["drift_reduced"]
     drift_ok = abs(d_r - d_f) <= max(1e-6, 0.2 * abs(d_f)) and (abs(d_f) < 1e-6 or np.sign(d_r) == np.sign(d_f))
-    return {"device": dev, "physics": phys, "drive": name, "range_um": rng * 1e6, "rms_pct": rms * 100,
+    rms = c["relative_rms_error"]
+    return {"device": dev, "physics": phys, "drive": name, "range_um": c["stroke_range"] * 1e6,
+            "rms_pct": float("nan") if rms is None else rms * 100,
             "speed_pct": None if speed is None else speed * 100, "drift_full_um": d_f * 1e6,
             "drift_reduced_um": d_r * 1e6, "drift_ok": drift_ok, "states": s.n_states}
 

@@ -278,13 +278,19 @@ class HoldResult:
                 "hard_switched_power": float(np.mean(Vw * Iw) + e_jump / T), "wall_time": self.wall_time}
 
 
-def _run_loop(step, read, law, mode, frequency, F, duration, dt, label) -> HoldResult:
-    """The master loop shared by the in-process and FMU runs: at t_k read the stroke,
-    compute the amplitude, apply +-A (polarity from k) and the force over [t_k, t_k + dt]."""
+def _samples(duration, dt, mode, frequency):
+    """(control steps in the hold, steps per half period or 0): the sampling every loop
+    runs on, checked."""
     n = round(duration / dt)
     if n < 1 or abs(n * dt - duration) > 1e-9 * duration:
         raise ValueError(f"duration: expected a positive multiple of dt = {dt:g} s, got {duration!r}")
-    half = _polarity(mode, frequency, dt)
+    return n, _polarity(mode, frequency, dt)
+
+
+def _run_loop(step, read, law, mode, frequency, F, duration, dt, label) -> HoldResult:
+    """The master loop shared by the in-process and FMU runs: at t_k read the stroke,
+    compute the amplitude, apply +-A (polarity from k) and the force over [t_k, t_k + dt]."""
+    n, half = _samples(duration, dt, mode, frequency)
     force = _force_fn(F)
     out = {k: np.empty(n + 1) for k in ("t", "x", "A", "V", "F", "I", "C")}
     wall = time.perf_counter()
@@ -378,10 +384,7 @@ def simulate_hold_surrogate(s, controller: HoldController | float, x_ref: float 
                          "simulate_hold")
     if mode not in MODES:
         raise ValueError(f"mode: got {mode!r}, expected one of {', '.join(MODES)}")
-    n = round(duration / dt)
-    if n < 1 or abs(n * dt - duration) > 1e-9 * duration:
-        raise ValueError(f"duration: expected a positive multiple of dt = {dt:g} s, got {duration!r}")
-    half = _polarity(mode, frequency, dt)
+    n, half = _samples(duration, dt, mode, frequency)
     ctl = np.array([x_ref, kp, ki, v_ff, v_max, dt, float(F)], float)
     out = np.empty((n + 1, 5))
     wall = time.perf_counter()
@@ -390,7 +393,7 @@ def simulate_hold_surrogate(s, controller: HoldController | float, x_ref: float 
     wall = time.perf_counter() - wall
     if status != sk.OK:
         raise SurrogateError(f"surrogate hold stopped at t = {k * dt:g} s (integrator status {status})")
-    C = np.interp(np.clip(out[:, 1], 0.0, s.x_e), s.x_grid, s.tables[:, sk.CAP])
+    C = s.capacitance(out[:, 1])
     return HoldResult(label, out[:, 0].copy(), out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy(),
                       np.full(n + 1, float(F)), out[:, 4].copy(), C, wall_time=wall)
 

@@ -290,22 +290,21 @@ class Surrogate:
         return rec[:rows].copy(), steps, y_end
 
     # ------------------------------------------------------------------ python-control
-    def _eval(self, xs, V, F, W=None, vdot=0.0, with_capacitance=False):
+    def _eval(self, xs, V, F, W=None, vdot=0.0):
         y = np.zeros(self.ny)
         y[self._index()] = xs
         y[-2], y[-1] = V, F
         ydot = np.zeros(self.ny)
         Fe, I = sk.evaluate(y, V * V if W is None else W, float(vdot), self.tables, self.par(), self._law, self._lawp,
                             ydot, sk.AUTO)
-        if with_capacitance:
-            return ydot[self._index()], I, self.capacitance(y[sk.X])
         return ydot[self._index()], I
 
-    def capacitance(self, x: float) -> float:
-        """The device capacitance at stroke x (F): the maps' column, as the kernel's
-        capacitive current uses it."""
-        x = min(max(float(x), 0.0), self.x_e)
-        return float(np.interp(x, self.x_grid, self.tables[:, sk.CAP]))
+    def capacitance(self, x):
+        """The device capacitance at stroke x (F; x a number or an array, clamped to
+        [0, x_e]): the maps' column, linear between its grid points (the kernel's
+        capacitive current interpolates it cubically; C(x) is smooth on the grid)."""
+        c = np.interp(np.clip(x, 0.0, self.x_e), self.x_grid, self.tables[:, sk.CAP])
+        return float(c) if np.ndim(c) == 0 else c
 
     def input_gains(self, x: float) -> dict:
         """dq/dt per volt of each charge state at stroke x, uncharged ({name: C/m^2/s/V}):
@@ -358,15 +357,15 @@ class Surrogate:
         outside the actuator."""
         import control
         names = self.state_names
-        S = np.array([self.state_scale(V_ref)[n] for n in names]) if scaled else np.ones(len(names))
+        scale = self.state_scale(V_ref)
+        S = np.array([scale[n] for n in names]) if scaled else np.ones(len(names))
 
         def upd(t, xs, u, params):
             return self._eval(xs * S, u[0], u[1])[0] / S
 
         def out(t, xs, u, params):
             xs = xs * S
-            yd, I, C = self._eval(xs, u[0], u[1], with_capacitance=True)
-            return np.array([min(max(xs[0], 0.0), self.x_e), I, C])
+            return np.array([min(max(xs[0], 0.0), self.x_e), self._eval(xs, u[0], u[1])[1], self.capacitance(xs[0])])
 
         sys_ = control.nlsys(upd, out, inputs=["voltage", "force"], outputs=list(self.OUTPUTS),
                              states=names, name=name or f"dfa_{self.family}")
@@ -449,7 +448,8 @@ class Surrogate:
                          outputs=list(self.OUTPUTS), states=[self.state_names[i] for i in keep],
                          name=f"{sysc.name}_lin" + ("_mech" if freeze_charge else ""))
         out.units = dict(self.OUTPUT_UNITS)
-        out.state_units = {self.state_names[i]: self.state_units()[self.state_names[i]] for i in keep}
+        units = self.state_units()
+        out.state_units = {self.state_names[i]: units[self.state_names[i]] for i in keep}
         x_eq = float(xs[0])
         if x_eq <= 0.0 or x_eq >= self.x_e:
             where = "x = 0 (unzipped)" if x_eq <= 0.0 else f"the end stop x_e = {self.x_e:g} m"
