@@ -18,6 +18,7 @@ import math
 from pathlib import Path
 
 from dfa_model.fileio import write_text_atomic
+from dfa_model.parameters import applies
 from dfa_model.waveforms import Protocol
 
 NAME = "improved.toml"
@@ -26,6 +27,25 @@ PROTOCOLS = "protocols"
 
 def _g(v) -> str:
     return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+
+def _nom(v) -> str:
+    return "not in the nominal model" if v is None else f"nominal {_g(v)}"
+
+
+# keys a law carries along with the fitted level without fitting them (catalog._linear_law)
+CARRIED = {"rho_min": "Eq. (21)'s floor: set at 1 % of the level when the law was added, scaled with the "
+                      "fitted level; not fitted itself"}
+
+
+def _unfitted(k: str, final) -> str | None:
+    """Why a moved key has no standard error of its own, in words (None: it was fitted)."""
+    if k in CARRIED and final.law == "linear":
+        return CARRIED[k]
+    if k == "rho_l" and final.law == "linear":
+        return ("takes no part under law 'linear' (m_rho, q_rho and rho_min set the resistivity): the constant "
+                "law's level fitted before Eq. (21) was added")
+    return None
 
 
 def fitted_keys(D) -> dict:
@@ -46,7 +66,7 @@ def fitted_keys(D) -> dict:
         {k: {"value": float(getattr(final, k)), "stderr": math.nan} for k in numeric}
     out = {}
     for k in changed:
-        nom = getattr(nominal, k, None)
+        nom = getattr(nominal, k) if applies(nominal, k) else None
         if k in errs:
             out[k] = {"value": errs[k]["value"], "stderr": errs[k]["stderr"], "nominal": nom}
         else:
@@ -74,21 +94,26 @@ def improved_toml(D, dataset_name: str | None = None) -> str:
         head.append("nominal values corrected: " + ", ".join(corrected))
     head.append("values the diagnosis moved (value +- standard error, nominal value replaced):")
     for k, f in fk.items():
-        if f["stderr"] is None:
+        why = _unfitted(k, D.final.params)
+        if why:
+            head.append(f"  {k} = {_g(f['value'])} ({_nom(f['nominal'])}): {why}")
+        elif f["stderr"] is None:
             head.append(f"  {k} = {f['value']!r} (nominal {f['nominal']!r}): the chosen form")
         elif f["stderr"] == 0:
-            head.append(f"  {k} = {_g(f['value'])} (nominal {_g(f['nominal'])}): not a fitted coordinate (the "
+            head.append(f"  {k} = {_g(f['value'])} ({_nom(f['nominal'])}): not a fitted coordinate (the "
                         "chosen form sets it, or does not use it)")
         else:
-            head.append(f"  {k} = {_g(f['value'])} +- {f['stderr']:.2g} (nominal {_g(f['nominal'])})")
+            head.append(f"  {k} = {_g(f['value'])} +- {f['stderr']:.2g} ({_nom(f['nominal'])})")
     body = []
     for line in D.final.params.to_toml().splitlines():
         key = line.split("=", 1)[0].strip() if "=" in line and not line.lstrip().startswith("#") else None
         f = fk.get(key)
-        if f is not None and f["stderr"]:
-            line += f"  [diagnosis: +- {f['stderr']:.2g}, nominal {_g(f['nominal'])}]"
+        if f is not None and _unfitted(key, D.final.params):
+            line += f"  [diagnosis: not fitted, see the header; {_nom(f['nominal'])}]"
+        elif f is not None and f["stderr"]:
+            line += f"  [diagnosis: +- {f['stderr']:.2g}, {_nom(f['nominal'])}]"
         elif f is not None:
-            line += f"  [diagnosis: nominal {_g(f['nominal'])}]"
+            line += f"  [diagnosis: {_nom(f['nominal'])}]"
         body.append(line)
     return "\n".join(f"# {h}" for h in head) + "\n\n" + "\n".join(body) + "\n"
 

@@ -41,6 +41,14 @@ def check_improved(D, report: dict, out: Path, fmu: bool = False) -> None:
     for k in fitted:
         line = next(ln for ln in text.splitlines() if ln.startswith(f"{k} ") or ln.startswith(f"{k}="))
         assert "[diagnosis:" in line and "nominal" in line, line
+    head = [ln for ln in text.splitlines() if ln.startswith("#  ")]
+    nd = D.dataset.params
+    for k in fitted:
+        entry = next(ln for ln in head if ln.startswith(f"#   {k} = "))
+        if not parameters.applies(nd, k):        # a law's key the nominal model has no use for
+            assert "not in the nominal model" in entry, entry
+    if D.final.params.law == "linear":          # Eq. (21)'s floor is carried with the level, not fitted
+        assert "not fitted" in next(ln for ln in head if ln.startswith("#   rho_min = "))
     for e in D.kept:                                           # the kept entries' errors in the header
         if e.kind == "physics":
             for key, v in report["missing_physics"][[m["name"] for m in report["missing_physics"]].index(e.name)][

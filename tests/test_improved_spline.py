@@ -1,0 +1,56 @@
+"""improved.toml for the one catalog form the diagnosis tests leave out: the spline
+resistivity law (test_diagnosis_proof.py covers the other entries, test_diagnosis.py the
+null and a nominal correction). A small diagnosis restricted to that form (N = 11, in this
+process, a few seconds) keeps it; then the same checks as everywhere (improved_support):
+reads back exactly, the protocols replay, the surrogate and the FMU run it."""
+from __future__ import annotations
+
+import pytest
+
+import diagnosis
+from dfa_model import preset
+from dfa_model.recordings import read_dataset
+from dfa_model.synthetic import generate_dataset
+from diagnosis.proofs import E6
+from improved_support import check_improved
+
+
+class InProcess:
+    """Runs the model in this process: the small diagnosis needs no worker processes."""
+
+    def map(self, fn, jobs):
+        return map(fn, jobs)
+
+    def shutdown(self):
+        pass
+
+
+@pytest.fixture(scope="module")
+def spline(tmp_path_factory):
+    """A steep Eq. (21) truth at 5-7 kV, two repetitions each, the highest voltage held out
+    (where the law matters most), only the spline form screened and fitted."""
+    folder = tmp_path_factory.mktemp("spline")
+    nominal = preset("vshape-table1").replace(N=11, rho_l=3e12)
+    truth = nominal.replace(law="linear", q_rho=2e12 + 1.5e5 * E6, m_rho=-1.5e5)
+    generate_dataset(folder / "data", truth, nominal, [(5000.0, 5.0), (6000.0, 5.0), (7000.0, 5.0)],
+                     repetitions=2, reset=0.5, hold=5.0, seed=3)
+    forms = [e for e in diagnosis.PHYSICS if e.variant == "spline"]
+    D = diagnosis.diagnose(read_dataset(folder / "data"), executor=InProcess(), candidates=forms,
+                           holdout=[(7000.0, 5.0)])
+    report = diagnosis.write_report(D, folder / "out")
+    assert [e.key for e in D.kept] == ["field_dependent_resistivity (spline)"], report["candidates"]
+    return D, report, folder / "out"
+
+
+def test_the_spline_law_as_an_improved_model_runs_everywhere(spline):
+    D, report, out = spline
+    check_improved(D, report, out, fmu=True)
+    text = (out / "improved.toml").read_text()
+    assert 'law = "spline"' in text
+    # the knots come with the form, not from the fit, and the header says so
+    for k in ("E_lo", "E_hi"):
+        line = next(ln for ln in text.splitlines() if ln.startswith(f"#   {k} = "))
+        assert "not a fitted coordinate" in line and "+-" not in line, line
+    # under the spline law rho_l is the level below the first knot: fitted, with its error
+    line = next(ln for ln in text.splitlines() if ln.startswith("#   rho_l = "))
+    assert "+-" in line and "takes no part" not in line, line
