@@ -180,12 +180,42 @@ def tune_hold_controller(s, x_ref: float, F: float, bandwidth: float | None = No
         lin_full = s.linearize(v_ff, F)
         Gd = control.c2d(control.ss(lin_full.A, lin_full.B[:, :1], lin_full.C[:1, :], lin_full.D[:1, :1]),
                          dt_control, "zoh")
-    L = _pi_tf(kp, ki, dt_control) * Gd
-    gm, pm, wcg, wcp = control.margin(L)
+    # in state space: a 15-state plant turned into a transfer function loses its poles near z = 1
+    L = control.ss(_pi_tf(kp, ki, dt_control)) * control.ss(Gd)
+    gm, pm, wcg, wcp = _margins(L)
     return HoldController(kp=float(kp), ki=float(ki), v_ff=v_ff, v_max=float(v_max), dt=float(dt_control), mode=mode,
                           frequency=float(frequency), x_ref=float(x_ref), F=float(F), plant_gain=g, plant_pole=pole,
                           crossover=float(wc), gain_margin=float(gm), phase_margin=float(pm),
                           gain_crossover=float(wcp), phase_crossover=float(wcg))
+
+
+def _margins(L):
+    """(gain margin, phase margin in deg, phase crossover, gain crossover in rad/s) of the
+    sampled loop L, from its response on (0, pi/dt], Nyquist included. control.margin is
+    not used: the PI's integrator puts a pole at z = 1, where it reports a spurious phase
+    crossover at w = 0 (gain margin ~1e-16 for a stable loop), and it misses the crossover
+    at the Nyquist frequency, where a sampled loop's phase often reaches -180 deg."""
+    w_n = math.pi / L.dt
+    w = w_n * np.logspace(-7, 0, 20001)
+    resp = np.asarray(L(np.exp(1j * w * L.dt))).ravel()
+    mag, ph = np.abs(resp), np.degrees(np.unwrap(np.angle(resp)))
+    ph -= 360.0 * round(ph[0] / 360.0 + 0.25)       # the integrator's -90 deg at low frequency
+    pm, wgc = math.inf, math.nan
+    g = np.nonzero((mag[:-1] >= 1.0) & (mag[1:] < 1.0))[0]
+    if g.size:
+        k = g[0]
+        pm, wgc = 180.0 + float(np.interp(0.0, [-mag[k] + 1, -mag[k + 1] + 1], ph[k:k + 2])), \
+            float(np.interp(0.0, [-mag[k] + 1, -mag[k + 1] + 1], w[k:k + 2]))
+    gm, wpc = math.inf, math.nan
+    # phase at -180 deg (mod 360): every crossing, and the Nyquist end when it lands there
+    r = (ph + 180.0) / 360.0
+    c = np.nonzero(np.floor(r[:-1]) != np.floor(r[1:]))[0]
+    cands = [(1.0 / mag[k], w[k]) for k in c]
+    if abs(resp[-1].imag) <= 1e-9 * mag[-1] and resp[-1].real < 0:
+        cands.append((1.0 / mag[-1], w_n))
+    if cands:
+        gm, wpc = min(cands)
+    return float(gm), float(pm), float(wpc), float(wgc)
 
 
 # ---------------------------------------------------------------------- amplitude laws

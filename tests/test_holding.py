@@ -41,10 +41,28 @@ def comparison(params, controller):
 def test_tuned_loop_margins(controller):
     c = controller
     assert c.phase_margin > 30.0
-    assert c.gain_margin > 2.0                          # inf: the sampled integral loop never reaches -180 deg
+    assert c.gain_margin > 2.0
     assert c.gain_crossover == pytest.approx(c.crossover, rel=0.05)
     assert c.crossover < c.plant_pole / 5 and c.crossover < 2 * np.pi * c.frequency / 5
     assert 5000.0 < c.v_ff < 6500.0 and c.plant_gain > 0
+
+
+@pytest.mark.parametrize("mode,frequency", [("bipolar", 30.0), ("bipolar", 1.0), ("dc", 10.0)])
+def test_the_gain_margin_is_where_the_sampled_loop_goes_unstable(params, mode, frequency):
+    """The margins are the loop's: scaled by 0.9 x the gain margin the closed loop is
+    stable, by 1.1 x unstable (the integrator's pole at z = 1 once gave a gain margin of
+    1e-16 for a stable loop, and a 15-state plant as a transfer function gave nonsense)."""
+    import control
+    from reduced.holding import _pi_tf
+    s = reduced.build(params, "charge")
+    c = tune_hold_controller(s, X_REF, F0, frequency=frequency, mode=mode)
+    lin = s.linearize(c.v_ff, F0, freeze_charge=mode != "dc")
+    G = control.ss(lin.A, lin.B[:, :1], lin.C[:1, :], lin.D[:1, :1])
+    L = control.ss(_pi_tf(c.kp, c.ki, c.dt)) * control.c2d(G, c.dt, "zoh")
+    radius = lambda k: np.max(np.abs(control.poles(control.feedback(k * L))))   # noqa: E731
+    assert radius(1.0) < 1.0 and 30.0 < c.phase_margin <= 90.0
+    assert np.isfinite(c.gain_margin) and c.gain_margin > 2.0
+    assert radius(0.9 * c.gain_margin) < 1.0 < radius(1.1 * c.gain_margin)
 
 
 def test_closed_loop_holds_where_open_loop_drifts(comparison):

@@ -114,3 +114,8 @@ def test_reduce_with_workers_exits_cleanly(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "Exception ignored" not in r.stderr and "Traceback" not in r.stderr
     assert out.exists()
+    # the summary judges periodic drives by ripple and drift (their hold's mean slope is
+    # near zero, so a relative speed error there would be noise), DC holds by their speed
+    lines = [ln for ln in r.stderr.splitlines() if "RMS error" in ln]
+    assert lines and all(("ripple" in ln) == ("bipolar" in ln or "unipolar" in ln) for ln in lines), r.stderr
+    assert all(("speed error" in ln) == (" dc" in ln) for ln in lines), r.stderr
