@@ -59,6 +59,7 @@ def to_json(D) -> dict:
         "located": [w.to_dict() for w in D.windows if w.systematic],
         "fit": {"baseline": _fit_dict(D.baseline), "improved": _fit_dict(final)},
         "conclusion": conclusion(D),
+        "unexplained": unexplained(D),
         "headline": headline(D),
         "trends": D.trends,
         "candidates": D.rounds,
@@ -128,16 +129,62 @@ def headline(D) -> list:
 
 
 def conclusion(D) -> str:
+    """One sentence: what was found, and whether it explains the data. "No missing
+    physics found" only when the baseline reaches the noise; a final model that leaves
+    UNEXPLAINED sensor noises or more is an unexplained mismatch, whatever was kept."""
     phys = [e.key for e in D.missing_physics]
     corr = [e.name.split(":", 1)[1] for e in D.corrections]
     parts = []
-    if phys:
+    if D.unexplained:
+        rmse, kind = D.residual
+        parts.append(f"unexplained mismatch: the best model leaves a {kind} stroke RMSE of {rmse * 1e6:.3g} um, "
+                     f"{rmse / D.final.sigma:.1f}x the sensor noise")
+        if phys:
+            parts.append("missing physics found, explaining part of it: " + ", ".join(phys))
+    elif phys:
         parts.append("missing physics: " + ", ".join(phys))
     else:
         parts.append("no missing physics found")
     if corr:
         parts.append("nominal value(s) corrected: " + ", ".join(corr))
     return "; ".join(parts)
+
+
+def tried(D) -> dict:
+    """How far every tried entry got: per candidate, its best full fit over the rounds
+    (held-out and training RMSE, BIC change against the model it extended), or, never
+    fitted, its last screen (the BIC change and held-out ratio its first step predicted)
+    and why it was not fitted."""
+    out = {}
+    for i, rnd in enumerate(D.rounds):
+        for key, ev in rnd.items():
+            if ev.get("fitted"):
+                row = {"fitted": True, "round": i + 1, "heldout_rmse": ev["heldout_rmse"],
+                       "train_rmse": ev["train_rmse"], "delta_bic": ev["delta_bic"]}
+                old = out.get(key)
+                better = old is None or not old["fitted"] or (
+                    (row["heldout_rmse"] if row["heldout_rmse"] is not None else row["train_rmse"])
+                    < (old["heldout_rmse"] if old["heldout_rmse"] is not None else old["train_rmse"]))
+                if better:
+                    out[key] = row
+            elif key not in out or not out[key]["fitted"]:
+                sc = ev.get("screen") or {}
+                why = ev.get("error") or ev.get("skipped") or "the screen did not shortlist it"
+                out[key] = {"fitted": False, "round": i + 1, "predicted_delta_bic": sc.get("predicted_delta_bic"),
+                            "predicted_heldout_ratio": sc.get("heldout_ratio"), "why": why}
+    return out
+
+
+def unexplained(D) -> dict | None:
+    """report.json's `unexplained`: None when the final model reaches the noise, else
+    where (the final model's systematic windows), how large, and how far each tried
+    entry got."""
+    if not D.unexplained:
+        return None
+    rmse, kind = D.residual
+    return {"rmse": rmse, "measure": kind, "sensor_noise": D.final.sigma, "ratio": rmse / D.final.sigma,
+            "model": " + ".join(["baseline"] + [e.key for e in D.kept]),
+            "windows": [w.to_dict() for w in D.remaining_windows()], "tried": tried(D)}
 
 
 def _per_condition(D, row_height):
@@ -341,6 +388,28 @@ def to_markdown(D, report: dict, plots: dict) -> str:
                      f"{w.excess:.1f} | {w.runs:.1f} | {w.effect:.1f} | {w.signature} |")
     for s in D.trends:
         L.append(f"- {s}")
+    un = report.get("unexplained")
+    if un:
+        L += ["", "## Unexplained mismatch", "",
+              f"The best model ({un['model']}) leaves a {un['measure']} stroke RMSE of {un['rmse'] * 1e6:.3g} um, "
+              f"{un['ratio']:.1f}x the sensor noise: the catalog does not explain these data. Where it still "
+              f"misses:", ""]
+        if un["windows"]:
+            L += ["| recording | window | t (s) | RMS (um) | mean (um) | signature |", "|---|---|---|---|---|---|"]
+            L += [f"| {w['recording']} | {w['window']} | {w['t_start']:.2f}-{w['t_end']:.2f} | "
+                  f"{w['rms_error'] * 1e6:.3g} | {w['mean_error'] * 1e6:+.3g} | {w['signature']} |"
+                  for w in un["windows"]]
+        else:
+            L.append("No single window stands out: the error is spread over the recordings.")
+        L += ["", "How far each tried entry got:", "", "| candidate | fitted | held-out RMSE (um) | delta BIC | note |",
+              "|---|---|---|---|---|"]
+        for k, t in un["tried"].items():
+            if t["fitted"]:
+                L.append(f"| {k} | round {t['round']} | {um(t['heldout_rmse'])} | {t['delta_bic']:+.1f} | |")
+            else:
+                r = t["predicted_heldout_ratio"]
+                pred = "" if r is None else f"first step predicted held-out x{r:.2f}; "
+                L.append(f"| {k} | no | - | - | {pred}{t['why']} |")
     L += ["", "## Candidates", ""]
     L += ["Each candidate is first screened (a score test: the BIC change a first fitting step predicts); the "
           "shortlisted ones are fitted in full.", ""]

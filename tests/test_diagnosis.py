@@ -38,7 +38,7 @@ def null(tmp_path_factory):
 def test_null_dataset_reports_no_missing_physics(null):
     D, report, drawn, out = null
     assert report["missing_physics"] == [] and report["fit"]["improved"] is None
-    assert report["conclusion"].startswith("no missing physics found")
+    assert report["conclusion"].startswith("no missing physics found") and report["unexplained"] is None
     assert not report["mismatch"] and report["located"] == []
     # the wrong nominal rho_l (3e12) is corrected to the truth's (times the repetitions'
     # mean factor), within three standard errors
