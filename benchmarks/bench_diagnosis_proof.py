@@ -5,6 +5,7 @@ RMSE before and after, whether the effect was concealed in the headline metric, 
 wall time of each diagnosis.
 
     python benchmarks/bench_diagnosis_proof.py [--N 41] [--seeds 21 22] [--only stiffness ...] [--keep DIR]
+                                               [--rig ideal|lab] [--drive reset_hold|inversion|unipolar]
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import numpy as np  # noqa: E402
 
 from dfa_model.dielectrics import from_parameters  # noqa: E402
-from diagnosis.proofs import CASES, E6, run  # noqa: E402
+from diagnosis.proofs import CASES, DRIVES, E6, RIGS, run  # noqa: E402
 
 
 def describe(name, D, report, truth) -> dict:
@@ -55,17 +56,24 @@ def main(argv=None):
     ap.add_argument("--seeds", type=int, nargs="+", default=[21])
     ap.add_argument("--only", nargs="+", choices=list(CASES))
     ap.add_argument("--keep", help="keep the datasets and reports here")
+    ap.add_argument("--rig", choices=list(RIGS), default="ideal",
+                    help="ideal: the truth at the fit's N, clean channels; lab: the truth at 4x N, lab channels, "
+                         "no rest stretch (diagnosis.proofs.RIGS)")
+    ap.add_argument("--drive", choices=list(DRIVES), default="reset_hold")
     a = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     root = a.keep or tempfile.mkdtemp(prefix="proof_")
-    print(f"N = {a.N}; noise 1 um, rho_l spread 5 %, 3 conditions x 3 repetitions; work in {root}")
+    m = RIGS[a.rig]
+    print(f"N = {a.N}; rig {a.rig} (truth at N = {m['truth_N'] * a.N}, {m['pretrigger']:g} s rest before the drive, "
+          f"{m['measurement']}), drive {a.drive}; 3 conditions x 3 repetitions; work in {root}")
     print("| design | seed | named | recovered | held-out RMSE (um) | noise (um) | concealed | diagnosis (s) |")
     print("|---|---|---|---|---|---|---|---|")
     rows = []
     for seed in a.seeds:
         for name in a.only or list(CASES):
             t0 = time.perf_counter()
-            D, report, truth = run(name, os.path.join(root, f"{name}_{seed}"), N=a.N, seed=seed)
+            D, report, truth = run(name, os.path.join(root, f"{name}_{seed}"), N=a.N, seed=seed, rig=a.rig,
+                                   drive=a.drive)
             r = describe(name, D, report, truth)
             rows.append(r)
             print(f"| {name} | {seed} | {r['named']}{'' if r['right'] else ' (WRONG)'} | {r['recovered']} | "

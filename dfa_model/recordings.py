@@ -22,10 +22,12 @@ its line number in the file):
 Documented handling (listed in Recording.notes, which the diagnosis report states):
 - gaps: a time step above GAP_FACTOR x the median step is kept as it is (the model runs
   through it; the fit uses the samples there are);
-- a force that varies by more than FORCE_TOL of its mean over the recording is used as a
-  sampled load, else its mean as a constant load;
+- a force whose moving mean (FORCE_WINDOW samples: a load cell's noise is not a load)
+  varies by more than FORCE_TOL of its mean over the recording is used as a sampled load
+  (that moving mean), else its mean as a constant load;
 - a stroke offset (sensor zero) is not corrected here: it is a nuisance parameter of the
-  fit.
+  fit, read where the model rests on its stop, or fitted when the recording has no rest
+  stretch before the drive (noted).
 
 Interpretation: the voltage becomes a Protocol of piecewise-constant levels switched at
 the measured threshold crossings (interpolated between samples; a regular square-wave
@@ -53,6 +55,7 @@ MIN_SAMPLES = 10
 GAP_FACTOR = 5.0          # a step this many times the median step is a gap
 LEVEL_TOL = 0.15          # a voltage stretch within this share of the amplitude of +A, 0 or -A
 FORCE_TOL = 0.05          # a force varying more than this share of its mean is a sampled load
+FORCE_WINDOW = 51         # samples of the moving mean that judges (and gives) a varying force
 MAX_KV_LOOKING = 50.0     # a recording whose |voltage| never exceeds this (V) is in kV
 MAX_FORCE = 1000.0        # N: above this a force column is not a DFA load in newtons
 MAX_STROKE = 0.1          # m: no DFA strokes 10 cm (without the actuator: the bound for mm)
@@ -279,11 +282,19 @@ def _interpret(rec: Recording) -> None:
         stages.append(Stage(reset, float(edges[-2]), "reset"))
     stages.append(Stage(DC(levels[-1]), float(edges[-1] - edges[-2]), "hold"))
     rec.protocol = Protocol(stages)
+    if lev[0] != 0:
+        rec.notes.append("no rest stretch before the drive: the sensor zero is fitted over the whole recording with "
+                         "its timing, not read at rest (it then also takes up a constant stroke mismatch)")
     F = rec.force
     Fm = float(np.mean(F))
-    if np.ptp(F) > FORCE_TOL * max(abs(Fm), 1e-3):
-        rec.load = Load(Sampled(t, F, name="force"))
-        rec.notes.append(f"the force varies ({F.min():.4g}-{F.max():.4g} N): used as a sampled load")
+    # judged on a moving mean over FORCE_WINDOW samples: a load cell's noise (its peak to
+    # peak over 20 000 samples is ~8 SD) is not a varying load, and is not fed to the model
+    k = min(FORCE_WINDOW, F.size)
+    Fs = np.convolve(np.pad(F, (k // 2, k - 1 - k // 2), mode="edge"), np.ones(k) / k, mode="valid")
+    if np.ptp(Fs) > FORCE_TOL * max(abs(Fm), 1e-3):
+        rec.load = Load(Sampled(t, Fs, name="force"))
+        rec.notes.append(f"the force varies ({Fs.min():.4g}-{Fs.max():.4g} N, moving mean over {k} samples): used "
+                         f"as a sampled load")
     else:
         rec.load = Load(Fm)
 

@@ -6,7 +6,10 @@
                      conditions=[(6000, 3), (6000, 5), (8000, 5)], repetitions=3, seed=1)
 
 Each recording is the paper's routine (Sec. 4.2): a charge reset (bipolar, 100 % duty, at
-the test amplitude, `reset_frequency`) for `reset` s, then a DC hold for `hold` s, sampled
+the test amplitude, `reset_frequency`) for `reset` s, then a DC hold for `hold` s (other
+drives: `drive="inversion"`, a bipolar 100 % duty square wave at `reset_frequency` over
+reset + hold; `drive="unipolar"`, unipolar pulses at `reset_frequency`, duty 0.5, for
+`reset` s, then the DC hold), sampled
 at 1 / dt, run on the full model with the truth parameters, then measured. The recorder
 starts `pretrigger` s before the drive (0 V, the actuator at rest): what a rig's
 pre-trigger gives, and the only stretch where the sensor's zero can be read apart from
@@ -16,7 +19,9 @@ the actuator's static stroke (without it, one sample at rest read the zero to th
   exp(N(0, rho_spread)) at every field (scaled_resistivity);
 - the laser sensor adds white noise of `noise` m RMS, reads relative to a zero that is off
   by N(0, offset) m per recording, and rounds to `quantum` m;
-- the voltage channel adds white noise of `voltage_noise` V RMS (levels stay levels);
+- the voltage channel adds white noise of `voltage_noise` V RMS (levels stay levels) and
+  reads with a gain off by N(0, voltage_gain) per recording (the monitor's calibration);
+- the force channel adds white noise of `force_noise` N RMS;
 - the drive's clock is not the sampler's: each recording's reset runs at
   reset_frequency (1 + N(0, clock)), so the switches fall at every phase of the samples
   (a drive locked to the sampling grid would put every third switch of a 30 Hz reset
@@ -37,10 +42,11 @@ import numpy as np
 
 from .parameters import Parameters
 from .solver import simulate
-from .waveforms import DC, Bipolar, Protocol, Stage
+from .waveforms import DC, Bipolar, Protocol, Stage, Unipolar
 
 
 TRUTH_RTOL = 1e-7   # the truth model's integrator tolerance (at most)
+DRIVES = ("reset_hold", "inversion", "unipolar")
 
 
 @dataclass
@@ -52,6 +58,8 @@ class Measurement:
     voltage_noise: float = 5.0     # voltage channel noise, RMS (V)
     dt: float = 1e-3               # sample period (s)
     clock: float = 1e-3            # relative SD of the drive's reset frequency against the sampling clock
+    voltage_gain: float = 0.0      # SD of the voltage monitor's relative gain error, per recording
+    force_noise: float = 0.0       # force channel noise, RMS (N)
 
     def __post_init__(self):
         for k, v in asdict(self).items():
@@ -77,12 +85,14 @@ def recording_name(V: float, F: float, rep: int) -> str:
 def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = None, conditions=((6000.0, 5.0),),
                      repetitions: int = 3, reset: float = 3.0, hold: float = 20.0, reset_frequency: float = 30.0,
                      measurement: Measurement | None = None, seed: int = 0, manifest=None,
-                     pretrigger: float = 0.1) -> dict:
+                     pretrigger: float = 0.1, drive: str = "reset_hold") -> dict:
     """Write a dataset folder (module docstring); returns what was drawn."""
     meas = measurement or Measurement()
     nominal = nominal or truth
     if not isinstance(repetitions, int) or repetitions < 1:
         raise ValueError(f"repetitions: got {repetitions!r}, expected an integer >= 1")
+    if drive not in DRIVES:
+        raise ValueError(f"drive: got {drive!r}, expected one of {', '.join(DRIVES)}")
     conditions = [(float(V), float(F)) for V, F in conditions]
     if not conditions:
         raise ValueError("conditions: at least one (voltage, force) pair")
@@ -101,9 +111,15 @@ def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = Non
             # grid would time the first switch exactly)
             pre = pretrigger + float(rng.uniform(0.0, meas.dt)) if pretrigger > 0 else 0.0
             stages = [Stage(DC(0.0), pre, "pretrigger")] if pre > 0 else []
-            if reset > 0:
-                stages.append(Stage(Bipolar(V, f_drive, 1.0), reset, "reset"))
-            protocol = Protocol(stages + [Stage(DC(V), t[-1] - pre - (reset if reset > 0 else 0.0), "hold")])
+            rest = t[-1] - pre - (reset if reset > 0 else 0.0)
+            if drive == "inversion":
+                stages.append(Stage(Bipolar(V, f_drive, 1.0), t[-1] - pre, "hold"))
+            else:
+                if reset > 0:
+                    stages.append(Stage(Bipolar(V, f_drive, 1.0) if drive == "reset_hold" else
+                                        Unipolar(V, f_drive, 0.5), reset, "reset"))
+                stages.append(Stage(DC(V), rest, "hold"))
+            protocol = Protocol(stages)
             factor = float(np.exp(rng.normal(0.0, meas.rho_spread)))
             offset = float(rng.normal(0.0, meas.offset))
             p = scaled_resistivity(truth, factor)
@@ -113,15 +129,18 @@ def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = Non
             x_meas = x + offset + rng.normal(0.0, meas.noise, t.size)
             if meas.quantum > 0:
                 x_meas = np.round(x_meas / meas.quantum) * meas.quantum
-            v_meas = protocol.voltage(t) + rng.normal(0.0, meas.voltage_noise, t.size)
+            gain = 1.0 + float(rng.normal(0.0, meas.voltage_gain)) if meas.voltage_gain > 0 else 1.0
+            v_meas = gain * protocol.voltage(t) + rng.normal(0.0, meas.voltage_noise, t.size)
+            f_meas = np.full(t.size, F) + (rng.normal(0.0, meas.force_noise, t.size) if meas.force_noise > 0 else 0.0)
             name = recording_name(V, F, rep)
-            data = np.column_stack([t, v_meas, np.full(t.size, F), x_meas])
-            lines = [f"# synthetic recording {name}: {pretrigger:g} s at 0 V, {reset:g} s reset at "
-                     f"{reset_frequency:g} Hz, {hold:g} s hold at {V:g} V against {F:g} N", "time,voltage,force,stroke"]
+            data = np.column_stack([t, v_meas, f_meas, x_meas])
+            lines = [f"# synthetic recording {name}: {pretrigger:g} s at 0 V, drive {drive} ({reset:g} s at "
+                     f"{reset_frequency:g} Hz, {hold:g} s hold) at {V:g} V against {F:g} N", "time,voltage,force,stroke"]
             lines += [f"{a:.6f},{b:.6g},{c:.6g},{d:.9g}" for a, b, c, d in data]
             (folder / f"{name}.csv").write_text("\n".join(lines) + "\n")
             drawn.append({"recording": name, "voltage": V, "force": F, "repetition": rep, "pretrigger": pre,
-                          "rho_factor": factor, "offset": offset, "reset_frequency": f_drive})
+                          "rho_factor": factor, "offset": offset, "reset_frequency": f_drive,
+                          "voltage_gain": gain})
     out = {"truth": truth.to_dict(), "nominal": nominal.to_dict(), "measurement": asdict(meas), "seed": seed,
            "recordings": drawn}
     if manifest is not None:

@@ -46,7 +46,7 @@ def cmd_diagnose(args) -> int:
             executor.shutdown()
     report = write(D, args.out)
     print(f"{report['conclusion']}; baseline held-out RMSE "
-          f"{_um(D.baseline.heldout_rmse)}, improved {_um(D.final.heldout_rmse) if D.kept else '-'}; "
+          f"{_um(D.baseline.heldout_rmse)}, improved {_um(D.final.heldout_rmse) if D.improved else '-'}; "
           f"wrote {args.out}/report.json, report.md, {report['improved_params']} (the improved model: "
           f"dfa simulate --params {args.out}/{report['improved_params']}) and protocols/")
     return 0

@@ -120,6 +120,9 @@ def _run(job):
         return f"{type(exc).__name__}: {exc}"
 
 
+REST_MIN = 20       # samples at rest on the stop that read the sensor's zero; fewer: it is fitted
+
+
 def align(stroke, run, sigma) -> tuple:
     """The model's stroke as the sensor saw it: (model at the samples with the sensor's
     zero added, that zero (sensor_offset), the recording's time shift tau (s)).
@@ -131,6 +134,17 @@ def align(stroke, run, sigma) -> tuple:
     by tau, linearized (x(t - tau) = x - tau dx/dt: tau is a fraction of the transient's
     milliseconds), with the prior N(0, TIME_PRIOR), profiled in closed form."""
     x, xd = run[0], run[1]
+    if np.count_nonzero(x <= 0.0) < REST_MIN:
+        # no rest stretch (a recording that starts with the drive): nothing reads the zero,
+        # so it is fitted with the timing over the whole recording (prior N(0, OFFSET_PRIOR)).
+        # It then also takes up a constant stroke mismatch: the report says so.
+        e = stroke - x
+        lo, lt = (sigma / OFFSET_PRIOR) ** 2, (sigma / TIME_PRIOR) ** 2
+        a11, a12, a22 = e.size + lo, -float(np.sum(xd)), float(xd @ xd) + lt
+        b1, b2 = float(np.sum(e)), -float(xd @ e)
+        det = a11 * a22 - a12 * a12
+        off, tau = (b1 * a22 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det
+        return x - tau * xd + off, off, tau
     off = sensor_offset(stroke, x, sigma)
     e0 = stroke - x - off
     tau = -float(e0 @ xd) / (float(xd @ xd) + (sigma / TIME_PRIOR) ** 2)

@@ -7,7 +7,8 @@ improved.toml is the fitted model's parameters (Parameters.to_toml: every key, e
 exact) with provenance in comments: the dataset, the held-out errors, the missing physics
 found, and for every value the diagnosis moved, its standard error and the nominal value
 it replaces. It holds no fit-internal setting (the fits' own tolerance is applied per run,
-never stored in the parameters): N, scheme and rtol are the dataset's. It runs unchanged
+never stored in the parameters): N, scheme and rtol are the dataset's (N raised when the
+resolution check found the mismatch to be the model's discretization). It runs unchanged
 wherever a parameter file does (`dfa simulate --params`, `reduce`, `design`, `hold`,
 `fmu build`); an edit that makes it inconsistent is the parameter file's one-line error.
 """
@@ -86,12 +87,16 @@ def improved_toml(D, dataset_name: str | None = None) -> str:
             f"dataset: {dataset_name or D.dataset.folder} ({len(D.dataset.recordings)} recordings, "
             f"{len(D.dataset.conditions())} conditions); nominal parameters: its actuator.toml",
             f"held-out stroke RMSE: baseline {um(D.baseline.heldout_rmse)}" +
-            (f" -> improved {um(D.final.heldout_rmse)}" if D.kept else "") +
+            (f" -> improved {um(D.final.heldout_rmse)}" if D.improved else "") +
             f" (sensor noise {um(D.baseline.sigma)})",
             "missing physics found: " + (", ".join(e.key for e in found) if found else
                                          "none (this is the baseline: the nominal actuator with its fitted resistivity)")]
     if corrected:
         head.append("nominal values corrected: " + ", ".join(corrected))
+    r = getattr(D, "resolution", None)
+    if r and r.get("resolution_only"):
+        head.append(f"N raised from {r['N']} to {r['N_fine']}: {', '.join(r['dropped'])} only took up the model's "
+                    f"discretization error")
     head.append("values the diagnosis moved (value +- standard error, nominal value replaced):")
     for k, f in fk.items():
         why = _unfitted(k, D.final.params)

@@ -34,10 +34,10 @@ def _clean(o):
 
 
 def to_json(D) -> dict:
-    final = D.final if D.kept else None
+    final = D.final if D.improved else None
     missing = []
-    for i, e in enumerate(D.kept):
-        if e.kind != "physics":
+    for i, e in enumerate(D.chain or D.kept):      # the round that kept it holds its evidence
+        if e.kind != "physics" or e not in D.kept:
             continue
         missing.append({"name": e.name, "form": e.variant or None, "description": e.description,
                         "parameters": entry_parameters(D, e), "evidence": D.rounds[i][e.key]})
@@ -60,6 +60,7 @@ def to_json(D) -> dict:
         "fit": {"baseline": _fit_dict(D.baseline), "improved": _fit_dict(final)},
         "conclusion": conclusion(D),
         "unexplained": unexplained(D),
+        "resolution": D.resolution,
         "headline": headline(D),
         "trends": D.trends,
         "candidates": D.rounds,
@@ -104,7 +105,7 @@ def headline(D) -> list:
         row = {"voltage": c[0], "force": c[1], "repetitions": len(recs), "speed_measured": float(np.mean(meas)),
                "speed_sd_condition": float(np.std(meas, ddof=1)) if len(recs) > 1 else None,
                "speed_error_baseline": float(np.mean(base) - np.mean(meas))}
-        if D.kept:
+        if D.improved:
             imp = [hold_speed(r.t, D.final.simulated[r.name], t0, t1) for r in recs]
             row["speed_error_improved"] = float(np.mean(imp) - np.mean(meas))
         if len(recs) > 1 and row["speed_measured"] != 0:
@@ -145,6 +146,11 @@ def conclusion(D) -> str:
         parts.append("missing physics: " + ", ".join(phys))
     else:
         parts.append("no missing physics found")
+    r = D.resolution
+    if r and r.get("resolution_only"):
+        parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "
+                     f"{r['measure']} error by {r['gain']:.0%} at N = {r['N']}, by {r['gain_fine']:.0%} at "
+                     f"N = {r['N_fine']}): the data ask for a finer N, not this entry")
     if corr:
         parts.append("nominal value(s) corrected: " + ", ".join(corr))
     return "; ".join(parts)
@@ -211,14 +217,14 @@ def plot_residuals(D, path):
     for ax, (c, recs) in zip(axes[:, 0], conds.items()):
         for r in recs:
             ax.plot(r.t, D.baseline.residual(r) * 1e6, lw=0.5, color="C3", alpha=0.7)
-            if D.kept:
+            if D.improved:
                 ax.plot(r.t, D.final.residual(r) * 1e6, lw=0.5, color="C2", alpha=0.7)
         held = " (held out)" if recs[0].name in D.baseline.heldout else ""
         ax.set_title(f"{c[0] / 1e3:g} kV, {c[1]:g} N{held}", fontsize=9, loc="left")
         ax.axhline(0, color="k", lw=0.5)
         ax.set_ylabel("residual (µm)")
     axes[0, 0].plot([], [], color="C3", label="baseline")
-    if D.kept:
+    if D.improved:
         axes[0, 0].plot([], [], color="C2", label="improved")
     fig.suptitle("measured - model stroke, every recording", fontsize=10)
     _finish(plt, fig, axes, path)
@@ -231,7 +237,7 @@ def plot_overlays(D, path):
         ax.plot(r.t, (r.stroke - D.baseline.offsets[r.name]) * 1e3, lw=0.6, color="0.5", label="measured")
         ax.plot(r.t, (D.baseline.simulated[r.name] - D.baseline.offsets[r.name]) * 1e3, lw=1, color="C3",
                 label="baseline")
-        if D.kept:
+        if D.improved:
             ax.plot(r.t, (D.final.simulated[r.name] - D.baseline.offsets[r.name]) * 1e3, lw=1, ls="--", color="C2",
                     label="improved")
         ax.set_title(f"{r.name}" + (" (held out)" if r.name in D.baseline.heldout else ""), fontsize=9, loc="left")
@@ -357,9 +363,11 @@ def to_markdown(D, report: dict, plots: dict) -> str:
          "## Before and after", "", "| model | train RMSE (um) | held-out RMSE (um) | BIC |", "|---|---|---|---|",
          f"| baseline (paper's model, rho_l fitted) | {um(D.baseline.train_rmse)} | {um(D.baseline.heldout_rmse)} | "
          f"{D.baseline.bic:.1f} |"]
-    if D.kept:
-        L.append(f"| + {' + '.join(e.name for e in D.kept)} | {um(D.final.train_rmse)} | {um(D.final.heldout_rmse)} | "
-                 f"{D.final.bic:.1f} |")
+    if D.improved:
+        what = " + ".join(e.name for e in D.kept)
+        if D.final.params.N != D.baseline.params.N:
+            what = (what + ", " if what else "") + f"N = {D.final.params.N}"
+        L.append(f"| + {what} | {um(D.final.train_rmse)} | {um(D.final.heldout_rmse)} | {D.final.bic:.1f} |")
     L += ["", "Headline metric (average unzipping speed over the hold, um/s; spread: the repetitions' scatter, "
           "pooled over conditions as a fraction of the speed; concealed: the baseline's error within it):", "",
           "| condition | measured | spread | baseline error | improved error | concealed |", "|---|---|---|---|---|---|"]
@@ -414,7 +422,7 @@ def to_markdown(D, report: dict, plots: dict) -> str:
     L += ["Each candidate is first screened (a score test: the BIC change a first fitting step predicts); the "
           "shortlisted ones are fitted in full.", ""]
     for i, rnd in enumerate(D.rounds):
-        L += [f"Round {i + 1} (against {'the baseline' if i == 0 else ' + '.join(e.name for e in D.kept[:i])}):", "",
+        L += [f"Round {i + 1} (against {'the baseline' if i == 0 else ' + '.join(e.name for e in (D.chain or D.kept)[:i])}):", "",
               "| candidate | screen: predicted delta BIC | delta BIC | held-out RMSE (um) | held-out reduction | "
               "parameters |", "|---|---|---|---|---|---|"]
         for name, ev in rnd.items():

@@ -55,11 +55,30 @@ def test_a_simulation_reads_back_and_its_protocol_reproduces_it(dataset):
 
 def test_synthetic_recording_levels_and_switches(tmp_path):
     r = read_csv(write(tmp_path / "a.csv", columns()))
-    assert r.notes == [] and r.protocol.stages[0].label == "reset"
+    # it starts with the drive: the zero cannot be read at rest, and the report says so
+    assert len(r.notes) == 1 and r.notes[0].startswith("no rest stretch before the drive")
+    assert r.protocol.stages[0].label == "reset"
     # 60 stretches of 1/60 s in the 1 s reset, switch times within half a sample of k/60
     ts = r.protocol.stages[0].waveform.times
     assert len(ts) == 60
     assert np.max(np.abs(ts - np.arange(60) / 60.0)) <= 0.5e-3 + 1e-9
+
+
+def test_a_rest_stretch_and_a_noisy_load_cell_need_no_note(tmp_path):
+    """A 0 V stretch before the drive reads the zero (no note); a load cell's 0.02 N noise
+    on 2 N (peak to peak ~0.16 N, beyond FORCE_TOL of the mean) is a constant load, while
+    a real load step is a sampled load of the smoothed force."""
+    c = columns()
+    c["voltage"][:100] = 0.0
+    rng = np.random.default_rng(0)
+    c["force"] = np.full_like(c["time"], 2.0) + rng.normal(0.0, 0.02, c["time"].size)
+    r = read_csv(write(tmp_path / "a.csv", c))
+    assert r.notes == [] and r.load.F == pytest.approx(2.0, abs=1e-3)
+    c["force"][2000:] += 1.0
+    r = read_csv(write(tmp_path / "b.csv", c))
+    assert "sampled load" in r.notes[0]
+    f = r.load.F if callable(r.load.F) else None
+    assert f is not None and abs(f(1.0) - 2.0) < 0.02 and abs(f(2.5) - 3.0) < 0.02
 
 
 @pytest.mark.parametrize("mutate, pattern", [
