@@ -80,13 +80,20 @@ def run_one(case: dict) -> dict:
     from dfa_model import preset
     from dfa_model.recordings import read_dataset
     from dfa_model.synthetic import Measurement, generate_dataset
-    nominal = preset("vshape-table1").replace(N=21, rho_l=3e12)
+    from diagnosis.proofs import DRIVES, RIGS
+    rig = RIGS[case.get("rig", "ideal")]
+    kind, hz = DRIVES[case.get("drive", "reset_hold")]
+    N = case.get("N", 21)
+    nominal = preset("vshape-table1").replace(N=N, rho_l=3e12)
     truth = nominal.replace(**{"rho_l": 2e12, **case["truth"]})
+    meas = {**rig["measurement"], "noise": case["noise"], "rho_spread": case["rho_spread"]} \
+        if case.get("rig", "ideal") == "ideal" else {**rig["measurement"], "noise": case["noise"]}
     wall = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        generate_dataset(Path(tmp) / "data", truth, nominal, case["conditions"], repetitions=3, reset=case["reset"],
-                         hold=case["hold"], measurement=Measurement(noise=case["noise"], rho_spread=case["rho_spread"]),
-                         seed=case["seed"])
+        generate_dataset(Path(tmp) / "data", truth.replace(N=rig["truth_N"] * N), nominal, case["conditions"],
+                         repetitions=3, reset=case["reset"], hold=case["hold"], measurement=Measurement(**meas),
+                         seed=case["seed"], pretrigger=rig["pretrigger"], drive=kind,
+                         **({} if kind == "reset_hold" else {"reset_frequency": hz}))
         D = diagnosis.diagnose(read_dataset(Path(tmp) / "data"), executor=InProcess())
         report = diagnosis.report.to_json(D)
     named = [m["name"] for m in report["missing_physics"]]
@@ -131,6 +138,11 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default="trial.jsonl")
+    ap.add_argument("--N", type=int, default=21, help="the fit's N (the nominal actuator's)")
+    ap.add_argument("--rig", choices=["ideal", "lab"], default="ideal",
+                    help="diagnosis.proofs.RIGS: ideal (truth at the fit's N) or lab (truth at 4x N, lab channels, "
+                         "no rest stretch; the drawn noise replaces the rig's 2 um)")
+    ap.add_argument("--drive", choices=["reset_hold", "inversion", "unipolar"], default="reset_hold")
     a = ap.parse_args(argv)
     out = Path(a.out)
     done = {}
@@ -138,7 +150,7 @@ def main(argv=None):
         for line in out.read_text().splitlines():
             r = json.loads(line)
             done[r["i"]] = r
-    cases = [draw(i, a.seed) for i in range(a.n) if i not in done]
+    cases = [{**draw(i, a.seed), "N": a.N, "rig": a.rig, "drive": a.drive} for i in range(a.n) if i not in done]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(a.workers) as ex, out.open("a") as fh:
         futs = {ex.submit(run_one, c): c for c in cases}

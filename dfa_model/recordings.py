@@ -55,6 +55,8 @@ MIN_SAMPLES = 10
 GAP_FACTOR = 5.0          # a step this many times the median step is a gap
 LEVEL_TOL = 0.15          # a voltage stretch within this share of the amplitude of +A, 0 or -A
 FORCE_TOL = 0.05          # a force varying more than this share of its mean is a sampled load
+CONDITION_V = 0.01        # hold voltages within this share of each other are one condition
+CONDITION_F = 0.02        # mean forces likewise (at least 10 mN apart to differ)
 FORCE_WINDOW = 51         # samples of the moving mean that judges (and gives) a varying force
 MAX_KV_LOOKING = 50.0     # a recording whose |voltage| never exceeds this (V) is in kV
 MAX_FORCE = 1000.0        # N: above this a force column is not a DFA load in newtons
@@ -83,6 +85,7 @@ class Recording:
     amplitude: float = 0.0
     hold_voltage: float = 0.0
     reset_end: float = 0.0
+    group: tuple | None = None      # its condition, set by read_dataset (group_conditions)
 
     @property
     def duration(self) -> float:
@@ -98,8 +101,11 @@ class Recording:
         return float(np.mean(self.force))
 
     def condition(self) -> tuple:
-        """(hold voltage, mean force) rounded to the nearest 10 V and 10 mN: recordings of
-        one condition (repetitions) share it."""
+        """(hold voltage, mean force) of its condition: recordings of one condition
+        (repetitions) share it. In a dataset, the group's (group_conditions); alone, its
+        own, rounded to the nearest 10 V and 10 mN."""
+        if self.group is not None:
+            return self.group
         return (round(self.hold_voltage, -1), round(self.force_mean, 2))
 
 
@@ -316,4 +322,24 @@ def read_dataset(folder) -> Dataset:
         raise RecordingError(f"{folder}: no recordings (*.csv)")
     from .kinematics import make
     x_e = float(make(params).x_e)
-    return Dataset(folder, params, [read_csv(f, x_e) for f in files])
+    recs = [read_csv(f, x_e) for f in files]
+    group_conditions(recs)
+    return Dataset(folder, params, recs)
+
+
+def group_conditions(recs) -> None:
+    """Group repetitions into conditions: hold voltages within CONDITION_V of each other
+    (relative) and mean forces within CONDITION_F (relative, at least 10 mN) are one
+    condition - a voltage monitor's gain error (0.2 %) and a load cell's noise must not
+    split repetitions. Each recording's `group` becomes its condition's (first member's
+    values, rounded to 10 V and 10 mN)."""
+    keys = []
+    for r in recs:
+        V, F = r.hold_voltage, r.force_mean
+        for k, (V0, F0) in keys:
+            if abs(V - V0) <= CONDITION_V * abs(V0) and abs(F - F0) <= max(CONDITION_F * abs(F0), 0.01):
+                r.group = k
+                break
+        else:
+            r.group = (round(V, -1), round(F, 2))
+            keys.append((r.group, (V, F)))

@@ -412,10 +412,21 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
         return _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm)
 
 
+def _condition_of(dataset, c) -> tuple:
+    """The dataset's condition a user's (V, F) names (within the grouping's tolerances:
+    a condition's key is its first recording's values)."""
+    from dfa_model.recordings import CONDITION_F, CONDITION_V
+    V, F = float(c[0]), float(c[1])
+    for k in dataset.conditions():
+        if abs(k[0] - V) <= CONDITION_V * abs(V) and abs(k[1] - F) <= max(CONDITION_F * abs(F), 0.01):
+            return k
+    return (V, F)
+
+
 def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm) -> FitResult:
     wall = time.perf_counter()
     base = base or dataset.params
-    holdout = choose_holdout(dataset) if holdout is None else list(holdout)
+    holdout = choose_holdout(dataset) if holdout is None else [_condition_of(dataset, c) for c in holdout]
     recs = dataset.recordings
     train = [r for r in recs if r.condition() not in holdout]
     held = [r for r in recs if r.condition() in holdout]
