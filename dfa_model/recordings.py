@@ -19,6 +19,10 @@ its line number in the file):
   levels +A, 0, -A of the recording's amplitude A (within LEVEL_TOL of A), and the hold
   (the last stretch) is not 0 V.
 
+Lab exports: a UTF-8 byte-order mark is skipped; the delimiter is a comma, else the
+header row's semicolon or tab; a row of units under the header (UNITS) converts each
+column to SI (noted).
+
 Documented handling (listed in Recording.notes, which the diagnosis report states):
 - gaps: a time step above GAP_FACTOR x the median step is kept as it is (the model runs
   through it; the fit uses the samples there are);
@@ -128,12 +132,42 @@ def _where(path, line=None) -> str:
     return f"{path.name}, row {line}" if line is not None else path.name
 
 
+# a units row under the header: the units each column may be given in, with their factor to SI
+UNITS = {"time": {"s": 1.0, "ms": 1e-3},
+         "voltage": {"v": 1.0, "kv": 1e3},
+         "force": {"n": 1.0, "mn": 1e-3},
+         "stroke": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6},
+         "current": {"a": 1.0, "ma": 1e-3, "ua": 1e-6, "µa": 1e-6, "na": 1e-9}}
+
+
+def _is_units_row(row, cols) -> bool:
+    """A row whose used columns are all text (not numbers): read as the units row."""
+    def num(x):
+        try:
+            float(x)
+            return True
+        except ValueError:
+            return False
+    return all(j < len(row) and row[j].strip() and not num(row[j].strip()) for j in cols.values())
+
+
+def _units(path, line, row, cols) -> dict:
+    out = {}
+    for c, j in cols.items():
+        u = row[j].strip().strip("[]()").lower()
+        if u not in UNITS[c]:
+            raise RecordingError(f"{_where(path, line)}: {c} in unit '{row[j].strip()}' (units row); allowed: "
+                                 f"{', '.join(UNITS[c])}")
+        out[c] = UNITS[c][u]
+    return out
+
+
 def read_csv(path, x_e: float | None = None) -> Recording:
     """Read and check one recording (module docstring). x_e: the actuator's full stroke
     (m), which bounds the stroke column (read_dataset gives it); without it, MAX_STROKE."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")     # a spreadsheet's byte-order mark is not the header
     except (OSError, UnicodeDecodeError) as exc:
         raise RecordingError(f"{path.name}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
     lines = text.splitlines()
@@ -142,7 +176,10 @@ def read_csv(path, x_e: float | None = None) -> Recording:
         k += 1
     if k == len(lines):
         raise RecordingError(f"{path.name}: empty (no header row '{','.join(REQUIRED)}')")
-    header = [h.strip().lower() for h in next(csv.reader([lines[k]]))]
+    # the delimiter: a comma, else what the header row uses (a semicolon or a tab, as
+    # spreadsheets with a decimal comma and some DAQ exports write)
+    delim = "," if "," in lines[k] else next((d for d in (";", "\t") if d in lines[k]), ",")
+    header = [h.strip().lower() for h in next(csv.reader([lines[k]], delimiter=delim))]
     missing = [c for c in REQUIRED if c not in header]
     if missing:
         raise RecordingError(f"{_where(path, k + 1)}: missing column(s) {', '.join(missing)} in the header "
@@ -153,8 +190,12 @@ def read_csv(path, x_e: float | None = None) -> Recording:
     cols = {c: header.index(c) for c in REQUIRED + OPTIONAL if c in header}
     extra = [h for h in header if h not in cols]
     rows, line_no = [], []
-    for i, row in enumerate(csv.reader(lines[k + 1:]), start=k + 2):
+    scale, units_row = {c: 1.0 for c in cols}, None
+    for i, row in enumerate(csv.reader(lines[k + 1:], delimiter=delim), start=k + 2):
         if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
+            continue
+        if not rows and units_row is None and _is_units_row(row, cols):
+            scale, units_row = _units(path, i, row, cols), i
             continue
         if len(row) < len(header):
             raise RecordingError(f"{_where(path, i)}: {len(row)} values, the header has {len(header)} columns")
@@ -174,7 +215,7 @@ def read_csv(path, x_e: float | None = None) -> Recording:
         raise RecordingError(f"{path.name}: {len(rows)} data rows, at least {MIN_SAMPLES} needed")
     a = np.array(rows)
     line = np.array(line_no)
-    data = {c: a[:, n] for n, c in enumerate(cols)}
+    data = {c: a[:, n] * scale[c] for n, c in enumerate(cols)}
     t = data["time"]
     dt = np.diff(t)
     bad = np.nonzero(dt <= 0)[0]
@@ -188,6 +229,9 @@ def read_csv(path, x_e: float | None = None) -> Recording:
         raise RecordingError(f"{_where(path, line[0])}: time starts at {t[0]:g} s; it must start at 0 at the "
                              f"start of the protocol (reset stage first)")
     rec = Recording(path.stem, path, t, data["voltage"], data["force"], data["stroke"], data.get("current"), line)
+    if units_row is not None and any(v != 1.0 for v in scale.values()):
+        rec.notes.append("units row (line " + str(units_row) + "): " + ", ".join(
+            f"{c} x {scale[c]:g}" for c in cols if scale[c] != 1.0) + " to SI")
     if extra:
         rec.notes.append(f"ignored column(s) {', '.join(extra)}")
     gaps = np.nonzero(dt > GAP_FACTOR * step)[0]

@@ -194,3 +194,22 @@ def test_synthetic_dataset_is_measured_like_a_rig(tmp_path):
         assert np.std(resid) == pytest.approx(np.hypot(2e-6, 0.5e-6 / np.sqrt(12)), rel=0.08)
         assert abs(np.mean(resid)) < 0.2e-6
         assert abs(np.corrcoef(resid[:-1], resid[1:])[0, 1]) < 0.06   # white
+
+
+def test_lab_exports_a_bom_a_semicolon_and_a_units_row(tmp_path):
+    """A spreadsheet's byte-order mark, a semicolon delimiter and a units row in lab units
+    read as the same recording as the plain SI file; an unknown unit is one line naming
+    the column and the units allowed."""
+    c = columns()
+    ref = read_csv(write(tmp_path / "si.csv", c))
+    lines = ["time;voltage;force;stroke", "ms;kV;N;mm"]
+    lines += [f"{t * 1e3:.6g};{v / 1e3:.10g};{f:.10g};{x * 1e3:.10g}"
+              for t, v, f, x in zip(c["time"], c["voltage"], c["force"], c["stroke"])]
+    path = tmp_path / "lab.csv"
+    path.write_bytes(b"\xef\xbb\xbf" + ("\n".join(lines) + "\n").encode())
+    r = read_csv(path)
+    assert np.allclose(r.t, ref.t) and np.allclose(r.voltage, ref.voltage) and np.allclose(r.stroke, ref.stroke)
+    assert r.hold_voltage == pytest.approx(ref.hold_voltage) and any("units row" in n for n in r.notes)
+    path.write_text("\n".join(["time;voltage;force;stroke", "ms;kV;lbf;mm"] + lines[2:]) + "\n")
+    with pytest.raises(RecordingError, match=r"^lab\.csv, row 2: force in unit 'lbf' \(units row\); allowed: n, mn"):
+        read_csv(path)
