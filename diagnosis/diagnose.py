@@ -284,12 +284,13 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
         ff = fit(dataset, baseline_spec(fb, ctx), base=fb, holdout=holdout, executor=executor, warm=f0,
                  max_nfev=RES_NFEV)
         if _error(ff) >= RES_PREMISE * _error(f0):
-            # the finer baseline fits no better: the data are no finer than the model's own grid
-            # (synthetic data made at this N), so resolution cannot be told apart here
+            # the finer baseline fits no better: the misfit is not the model's resolution (a
+            # large missing effect dominates it), or the data share the model's own grid
+            # (synthetic data made at this N); either way the kept entries stand
             return kept, current, {"N": N, "N_fine": Nf, "baseline_rmse": _error(f0),
                                    "baseline_fine_rmse": _error(ff), "resolution_only": False,
-                                   "inconclusive": "the baseline fits no better at the finer N: the data look made at the "
-                                                   "model's own resolution"}
+                                   "inconclusive": "the baseline fits no better at the finer N: resolution is not what "
+                                                   "the model misses here (or the data were made at this N)"}
         fk = fit(dataset, baseline_spec(pk, ctx) + [fp for e in kept for fp in e.spec(pk, ctx)], base=pk,
                  holdout=holdout, executor=executor, warm=current, max_nfev=RES_NFEV)
     except Exception as exc:       # the check cannot run: say so, keep what was found
