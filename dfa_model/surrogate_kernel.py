@@ -775,6 +775,8 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
                     rw0[c] = rw[c]
                 ka, ra, kb, rb = ka2, ra2, kb2, rb2
                 Fe, I = Fe2, I2
+            elif not clipped and mode == FREE and vs[seg] == 0.0 and fs[seg] == 0.0:
+                Fe, I = Fe2, I2     # a breakpoint of constant inputs: the last stage is at y
             else:
                 Fe, I, _, _, _, _ = rhs(y, W, vd, tab, par, law, lawp, k1, rw, pt, AUTO, Jb0)
             _record(rec, row, t, y, I, Fe, NY)
