@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dfa_model.fileio import write_text_atomic
+from dfa_model.fileio import write_atomic, write_text_atomic
 
 
 def _fit_dict(f) -> dict | None:
@@ -208,7 +208,7 @@ def _finish(plt, fig, axes, path):
     fig.legend(*axes[0, 0].get_legend_handles_labels(), fontsize=8, loc="upper right", ncol=3, frameon=False)
     axes[-1, 0].set_xlabel("time (s)")
     fig.tight_layout(rect=(0, 0, 1, 0.98))
-    fig.savefig(path, dpi=110)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     plt.close(fig)
 
 
@@ -298,7 +298,7 @@ def plot_terms(D, path) -> bool:
             ax.set_xticks(range(len(pars)), list(pars))
             ax.set_title(e.name, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     plt.close(fig)
     return True
 
