@@ -3,11 +3,12 @@
 A run that ends with "cannot write" after minutes of work loses its result, and a
 half-written CSV looks like a complete one. So every output path is checked up front
 (`check_writable`), and files appear only complete (`write_atomic`: a temporary file
-beside the target, then a rename).
+beside the target, then a rename), with the mode any new file gets under the user's umask.
 """
 from __future__ import annotations
 
 import os
+import secrets
 import tempfile
 from pathlib import Path
 
@@ -45,12 +46,43 @@ def check_writable(name: str, path, formats: tuple[str, ...] | None = None) -> P
     return p
 
 
+def _create_temp(folder, prefix: str, suffix: str) -> str:
+    """A new, empty file in `folder` (a name no one else has), created with the mode an
+    ordinary new file gets: 0o666 less the user's umask (0o644 under 0o022), or what the
+    folder's default ACL says.
+
+    tempfile.mkstemp creates 0o600 (right for a private temporary file, wrong for an
+    output that replaces the target: a shared folder got files nobody else could open).
+    Rather than reading the umask and chmod-ing, the file is created with os.open(...,
+    0o666) and the kernel applies the umask itself, at that moment. The usual way to read
+    the umask, os.umask(0) then os.umask(old), changes the process-wide umask for an
+    instant: a thread creating a file then (a sweep's workers, a plotting thread) would
+    get a world-writable file, and a lock only orders our own callers. Reading it once at
+    import would miss a later change of umask. So the umask is never read here; callers
+    that need the mode (the entries of an FMU's zip) take it from the created file."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
+    for _ in range(tempfile.TMP_MAX):
+        tmp = os.path.join(folder, f"{prefix}{secrets.token_hex(4)}{suffix}")
+        try:
+            fd = os.open(tmp, flags, 0o666)
+        except FileExistsError:
+            continue
+        os.close(fd)
+        return tmp
+    raise FileExistsError(f"no unused temporary file name in {str(folder)!r}")
+
+
+def file_mode(path) -> int:
+    """The permission bits of `path` (0o644 for a new file under umask 0o022)."""
+    return os.stat(path).st_mode & 0o7777
+
+
 def write_atomic(path, write) -> None:
     """Create `path` complete or not at all: `write(tmp_path)` fills a temporary file in
-    the same folder, which then replaces the target."""
+    the same folder, which then replaces the target. The result has the mode of a new
+    file (0o666 less the umask; see _create_temp), also when it replaces an existing file."""
     p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part" + p.suffix, dir=p.parent if str(p.parent) else ".")
-    os.close(fd)
+    tmp = _create_temp(p.parent if str(p.parent) else ".", f".{p.name}.", ".part" + p.suffix)
     try:
         write(tmp)
         os.replace(tmp, p)

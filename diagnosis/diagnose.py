@@ -19,6 +19,11 @@ catalog and the nominal values.
    error: refitted at twice the elements (_resolution_check), physics keeps its gain over
    the baseline; an entry whose gain falls away only absorbed resolution error: it is
    dropped and the finer baseline is the final model.
+5. Nothing held out (a single condition, or a holdout of none): the rounds still run, on
+   the training data alone (BIC), but what they keep is never applied - no nominal value
+   is corrected and no physics named without held-out evidence. The entries are the
+   diagnosis's `unverified` suggestions (with their joint fit, `suggested`); the final
+   model is the baseline.
 
 Evidence kept for every candidate of every round: its screen (the chi-square reduction
 of a first step and the BIC change it predicts), and for the fitted ones their BIC and
@@ -70,6 +75,20 @@ class Diagnosis:
     final_windows: list | None = None          # locate.Window of the final model (None: the baseline's)
     resolution: dict | None = None             # the discretization check (_resolution_check)
     chain: list | None = None                  # the entries the rounds kept, before that check
+    unverified: list = field(default_factory=list)   # entries the rounds kept with nothing held out (not applied)
+    suggested: object | None = None            # FitResult of the baseline + unverified (None: no suggestion)
+
+    @property
+    def held_out(self) -> bool:
+        """Whether any recording was held out (the only evidence a change generalizes)."""
+        return bool(self.baseline.heldout)
+
+    def nothing_held_out(self) -> str | None:
+        """Why nothing could be held out, in words (None when something was)."""
+        if self.held_out:
+            return None
+        n = len(self.dataset.conditions())
+        return "one condition" if n == 1 else f"no condition of the {n} was held out"
 
     @property
     def improved(self) -> bool:
@@ -239,13 +258,20 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
             kept.append(prepared[best_key][0])
             current = fits[best_key]
             say(f"kept {best_key}: BIC {ev[best_key]['delta_bic']:+.1f}, held out {_um(current.heldout_rmse)}")
-        resolution, chain = None, list(kept)
+        resolution, chain, unverified, suggested = None, list(kept), [], None
+        if kept and not f0.heldout:
+            # nothing held out: the rounds' choices rest on the training data alone (a BIC can
+            # always be lowered by a parameter that bends the model to one condition): they are
+            # suggestions, the final model stays the baseline
+            unverified, suggested, kept, current = list(kept), current, [], f0
+            say(f"nothing held out: {', '.join(e.key for e in unverified)} not applied (unverified suggestions)")
         if any(e.kind == "physics" for e in kept):
             kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
                                                          say)
         final_windows = locate(dataset, current) if current is not f0 else None
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
-                         final_windows=final_windows, resolution=resolution, chain=chain)
+                         final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
+                         suggested=suggested)
     finally:
         if own:
             executor.shutdown()

@@ -6,7 +6,9 @@ the protocol each recording was read as.
 improved.toml is the fitted model's parameters (Parameters.to_toml: every key, every number
 exact) with provenance in comments: the dataset, the held-out errors, the missing physics
 found, and for every value the diagnosis moved, its standard error and the nominal value
-it replaces. It holds no fit-internal setting (the fits' own tolerance is applied per run,
+it replaces. With nothing held out (one condition) no nominal value is corrected and no
+physics added: the values the training fit alone suggests are comments, the nominal values
+stay. It holds no fit-internal setting (the fits' own tolerance is applied per run,
 never stored in the parameters): N, scheme and rtol are the dataset's (N raised when the
 resolution check found the mismatch to be the model's discretization). It runs unchanged
 wherever a parameter file does (`dfa simulate --params`, `reduce`, `design`, `hold`,
@@ -90,9 +92,24 @@ def improved_toml(D, dataset_name: str | None = None) -> str:
             (f" -> improved {um(D.final.heldout_rmse)}" if D.improved else "") +
             f" (sensor noise {um(D.baseline.sigma)})",
             "missing physics found: " + (", ".join(e.key for e in found) if found else
-                                         "none (this is the baseline: the nominal actuator with its fitted resistivity)")]
+                                         ("none verified" if any(e.kind == "physics" for e in
+                                                                 getattr(D, "unverified", [])) else "none")
+                                         + " (this is the baseline: the nominal actuator with its fitted resistivity)")]
     if corrected:
         head.append("nominal values corrected: " + ", ".join(corrected))
+    if getattr(D, "unverified", None):
+        head.append(f"nothing could be held out ({D.nothing_held_out()}): the nominal values are kept; the fit on the "
+                    "training data alone suggests, unverified and not applied (report.json unverified_suggestions):")
+        for e in D.unverified:
+            if e.kind == "nominal":
+                k = e.name.split(":", 1)[1]
+                head.append(f"  suggested {k}: {_g(D.suggested.values[k])} +- {D.suggested.stderr[k]:.2g} "
+                            f"(kept: nominal {_g(getattr(D.dataset.params, k))})")
+            else:
+                from .report import entry_parameters
+                pars = entry_parameters(D, e, D.suggested)
+                head.append(f"  suggested physics {e.key}: " + ", ".join(
+                    f"{k} = {_g(v['value'])} +- {v['stderr']:.2g}" for k, v in pars.items()) + " (not added)")
     r = getattr(D, "resolution", None)
     if r and r.get("resolution_only"):
         head.append(f"N raised from {r['N']} to {r['N_fine']}: {', '.join(r['dropped'])} only took up the model's "

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dfa_model.fileio import write_text_atomic
+from dfa_model.fileio import write_atomic, write_text_atomic
 
 
 def _fit_dict(f) -> dict | None:
@@ -49,7 +49,10 @@ def to_json(D) -> dict:
             # corrected: the data move it beyond two standard errors of the fit
             corrected["rho_l" if k == "rho_ref" else k] = {
                 "nominal": nom, "fitted": v, "stderr": D.final.stderr[k],
-                "corrected": bool(abs(v - nom) > 2 * D.final.stderr[k])}
+                "corrected": bool(abs(v - nom) > 2 * D.final.stderr[k]),
+                # the resistivity is the baseline's own fitted parameter (fitted in every
+                # diagnosis); a corrected nominal value has passed a held-out check
+                "heldout_checked": D.held_out}
             if k == "rho_ref":
                 corrected["rho_l"]["at_field"] = D.context.E_ref
     out = {
@@ -59,6 +62,8 @@ def to_json(D) -> dict:
         "located": [w.to_dict() for w in D.windows if w.systematic],
         "fit": {"baseline": _fit_dict(D.baseline), "improved": _fit_dict(final)},
         "conclusion": conclusion(D),
+        "nothing_held_out": D.nothing_held_out(),
+        "unverified_suggestions": unverified_suggestions(D),
         "unexplained": unexplained(D),
         "resolution": D.resolution,
         "headline": headline(D),
@@ -72,13 +77,49 @@ def to_json(D) -> dict:
     return _clean(out)
 
 
-def entry_parameters(D, e) -> dict:
+def entry_parameters(D, e, f=None) -> dict:
     """A kept entry's parameters in the model's own keys ({key: {value, stderr}}): the
-    fitted coordinates when they are keys, else (a law) the keys they set."""
+    fitted coordinates when they are keys, else (a law) the keys they set. f: the fit
+    they come from (default the final model)."""
+    f = D.final if f is None else f
     if e.shows:
-        return D.final.model_values(e.shows)
-    keys = [fp.key for fp in e.spec(D.final.params, D.context)]
-    return {k: {"value": D.final.values[k], "stderr": D.final.stderr[k]} for k in keys}
+        return f.model_values(e.shows)
+    keys = [fp.key for fp in e.spec(f.params, D.context)]
+    return {k: {"value": f.values[k], "stderr": f.stderr[k]} for k in keys}
+
+
+def unverified_suggestions(D) -> list:
+    """report.json's `unverified_suggestions`: what the rounds kept when nothing was held
+    out (diagnose.py, step 5), not applied to the final model or improved.toml. A nominal
+    value: {name (its key), kind, nominal, suggested, stderr, reason, evidence}; physics:
+    {name, kind, form, nominal ({key: the nominal model's value, None when it has no such
+    key}), suggested ({key: value}), parameters ({key: {value, stderr}}), reason, evidence}."""
+    from dfa_model.parameters import applies
+    out = []
+    why = D.nothing_held_out()
+    chain = D.chain or []
+    for e in D.unverified:
+        ev = D.rounds[chain.index(e)][e.key] if e in chain else {}
+        reason = (f"nothing could be held out ({why}): kept on the training data alone (delta BIC "
+                  f"{ev.get('delta_bic', float('nan')):+.1f}), never checked on data it was not fitted to; "
+                  f"not applied")
+        if e.kind == "nominal":
+            k = e.name.split(":", 1)[1]
+            out.append({"name": k, "kind": "nominal", "nominal": getattr(D.dataset.params, k),
+                        "suggested": D.suggested.values[k], "stderr": D.suggested.stderr[k], "reason": reason,
+                        "evidence": ev})
+        else:
+            pars = entry_parameters(D, e, D.suggested)
+            nd = D.dataset.params
+            out.append({"name": e.name, "kind": "physics", "form": e.variant or None,
+                        "nominal": {k: (getattr(nd, k) if applies(nd, k) else None) for k in pars},
+                        "suggested": {k: v["value"] for k, v in pars.items()}, "parameters": pars,
+                        "reason": reason, "evidence": ev})
+    return out
+
+
+def _suggestion_names(D) -> str:
+    return ", ".join(e.name.split(":", 1)[1] if e.kind == "nominal" else e.key for e in D.unverified)
 
 
 def hold_speed(t, x, t0, t1, span=0.5) -> float:
@@ -138,12 +179,15 @@ def conclusion(D) -> str:
     parts = []
     if D.unexplained:
         rmse, kind = D.residual
-        parts.append(f"unexplained mismatch: the best model leaves a {kind} stroke RMSE of {rmse * 1e6:.3g} um, "
+        who = "the final model (the baseline: no change verified)" if D.unverified else "the best model"
+        parts.append(f"unexplained mismatch: {who} leaves a {kind} stroke RMSE of {rmse * 1e6:.3g} um, "
                      f"{rmse / D.final.sigma:.1f}x the sensor noise")
         if phys:
             parts.append("missing physics found, explaining part of it: " + ", ".join(phys))
     elif phys:
         parts.append("missing physics: " + ", ".join(phys))
+    elif any(e.kind == "physics" for e in D.unverified):
+        parts.append("no missing physics verified")
     else:
         parts.append("no missing physics found")
     r = D.resolution
@@ -153,6 +197,15 @@ def conclusion(D) -> str:
                      f"N = {r['N_fine']}): the data ask for a finer N, not this entry")
     if corr:
         parts.append("nominal value(s) corrected: " + ", ".join(corr))
+    if D.unverified:
+        kinds = {e.kind for e in D.unverified}
+        nots = {frozenset({"nominal"}): "not corrections", frozenset({"physics"}): "not missing physics"}.get(
+            frozenset(kinds), "neither corrections nor missing physics")
+        parts.append(f"nothing could be held out ({D.nothing_held_out()}): {_suggestion_names(D)} listed as "
+                     f"unverified suggestions, {nots} (with them the training stroke RMSE would be "
+                     f"{D.suggested.train_rmse * 1e6:.3g} um; not checked on data they were not fitted to)")
+    elif not D.held_out:
+        parts.append(f"nothing could be held out ({D.nothing_held_out()})")
     return "; ".join(parts)
 
 
@@ -208,7 +261,7 @@ def _finish(plt, fig, axes, path):
     fig.legend(*axes[0, 0].get_legend_handles_labels(), fontsize=8, loc="upper right", ncol=3, frameon=False)
     axes[-1, 0].set_xlabel("time (s)")
     fig.tight_layout(rect=(0, 0, 1, 0.98))
-    fig.savefig(path, dpi=110)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     plt.close(fig)
 
 
@@ -298,7 +351,7 @@ def plot_terms(D, path) -> bool:
             ax.set_xticks(range(len(pars)), list(pars))
             ax.set_title(e.name, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     plt.close(fig)
     return True
 
@@ -358,11 +411,19 @@ def to_markdown(D, report: dict, plots: dict) -> str:
     L = [f"# Diagnosis of {D.dataset.folder.name}", "",
          f"**{report['conclusion']}.** {len(D.dataset.recordings)} recordings, "
          f"{len(D.dataset.conditions())} conditions; held out: "
-         f"{', '.join(sorted(set(D.baseline.heldout))) or 'none (a single condition)'}. Sensor noise from the data: "
-         f"{D.baseline.sigma * 1e6:.3g} um RMS. Wall time {D.wall_time:.0f} s.", "",
-         "## Before and after", "", "| model | train RMSE (um) | held-out RMSE (um) | BIC |", "|---|---|---|---|",
-         f"| baseline (paper's model, rho_l fitted) | {um(D.baseline.train_rmse)} | {um(D.baseline.heldout_rmse)} | "
-         f"{D.baseline.bic:.1f} |"]
+         f"{', '.join(sorted(set(D.baseline.heldout))) or f'none ({D.nothing_held_out()})'}. Sensor noise from the "
+         f"data: {D.baseline.sigma * 1e6:.3g} um RMS. Wall time {D.wall_time:.0f} s.", ""]
+    if not D.held_out:
+        L += [f"Nothing could be held out ({D.nothing_held_out()}): no nominal value is corrected and no physics "
+              f"named, since no change was checked on data it was not fitted to; the final model is the baseline"
+              + (f". What the fit on the training data alone would change ({_suggestion_names(D)}) is listed as "
+                 f"unverified suggestions below." if D.unverified else "."), ""]
+    L += ["## Before and after", "", "| model | train RMSE (um) | held-out RMSE (um) | BIC |", "|---|---|---|---|",
+          f"| baseline (paper's model, rho_l fitted) | {um(D.baseline.train_rmse)} | {um(D.baseline.heldout_rmse)} | "
+          f"{D.baseline.bic:.1f} |"]
+    if D.suggested is not None:
+        L.append(f"| + {_suggestion_names(D)} (unverified suggestion, not applied) | {um(D.suggested.train_rmse)} | "
+                 f"- | {D.suggested.bic:.1f} |")
     if D.improved:
         what = " + ".join(e.name for e in D.kept)
         if D.final.params.N != D.baseline.params.N:
@@ -377,6 +438,23 @@ def to_markdown(D, report: dict, plots: dict) -> str:
         hidden = "-" if h["concealed"] is None else ("yes" if h["concealed"] else "no")
         L.append(f"| {h['voltage'] / 1e3:g} kV, {h['force']:g} N | {h['speed_measured'] * 1e6:.3g} | {sd} | "
                  f"{f(h['speed_error_baseline'])} | {f(h.get('speed_error_improved'))} | {hidden} |")
+    if report.get("unverified_suggestions"):
+        L += ["", "## Unverified suggestions", "",
+              f"Nothing could be held out ({D.nothing_held_out()}): these were kept on the training data alone and "
+              f"never checked on data they were not fitted to. They are not corrections: the final model and "
+              f"{report['improved_params']} keep the nominal values. Record another condition (another load or "
+              f"voltage) to test them.", "",
+              "| suggestion | nominal | suggested (+- standard error) | delta BIC (training) |", "|---|---|---|---|"]
+        for u in report["unverified_suggestions"]:
+            dbic = (u["evidence"] or {}).get("delta_bic")
+            dbic = "-" if dbic is None else f"{dbic:+.1f}"
+            if u["kind"] == "nominal":
+                L.append(f"| {u['name']} | {u['nominal']:.4g} | {u['suggested']:.4g} +- {u['stderr']:.2g} | {dbic} |")
+            else:
+                nom = ", ".join(f"{k} = {'-' if v is None else f'{v:.4g}'}" for k, v in u["nominal"].items())
+                sug = ", ".join(f"{k} = {v['value']:.4g} +- {v['stderr']:.2g}" for k, v in u["parameters"].items())
+                form = f" ({u['form']})" if u["form"] else ""
+                L.append(f"| {u['name']}{form} (physics) | {nom} | {sug} | {dbic} |")
     L += ["", f"The improved model as a parameter file: [{report['improved_params']}]({report['improved_params']}) "
           f"(`dfa simulate --params {report['improved_params']}`, `dfa reduce`, `dfa design`, `dfa hold`, "
           f"`dfa fmu build`); each recording's drive as a protocol file in `protocols/`.",

@@ -26,7 +26,7 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from dfa_model import parameters as P
-from dfa_model.fileio import write_atomic
+from dfa_model.fileio import file_mode, write_atomic
 
 HERE = Path(__file__).resolve().parent
 SLAVE = HERE / "dfa_actuator.py"
@@ -195,11 +195,27 @@ def output_path(out, suffix: str, hint: str = "") -> Path:
 
 
 def write_zip(out: Path, entries: dict) -> None:
-    """The archive `out` of entries (name in the archive -> bytes), complete or not at all."""
+    """The archive `out` of entries (name in the archive -> bytes), complete or not at all.
+    The archive and its entries have the mode of a new file under the user's umask (0o644
+    under 0o022; binaries/*.so also executable where readable), so that a tool unpacking
+    it with the modes (unzip) gives files others can read too; zipfile's writestr alone
+    marks every entry 0o600."""
+    import time
+
     def write(tmp):
+        mode = file_mode(tmp) & 0o666                 # the new file's: 0o666 less the umask
+        stamp = time.localtime()[:6]
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
             for name, data in entries.items():
-                z.writestr(name, data)
+                info = zipfile.ZipInfo(name, date_time=stamp)
+                info.compress_type = zipfile.ZIP_DEFLATED
+                if name.endswith("/"):                      # a folder: searchable where readable
+                    info.external_attr = (0o040000 | mode | (mode & 0o444) >> 2) << 16 | 0x10
+                elif name.startswith("binaries/") and name.endswith(".so"):
+                    info.external_attr = (0o100000 | mode | (mode & 0o444) >> 2) << 16
+                else:
+                    info.external_attr = (0o100000 | mode) << 16
+                z.writestr(info, data)
     write_atomic(out, write)
 
 

@@ -6,7 +6,7 @@ import json
 import sys
 
 from dfa_model import cli as base
-from dfa_model.fileio import check_writable
+from dfa_model.fileio import check_writable, write_atomic
 
 from dfa_model.cli import json_safe
 
@@ -90,5 +90,5 @@ def _plot(cmp, path):
     axa.set_ylabel("loop amplitude (kV)")
     axa.set_xlabel("time (s)")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=120, format=str(path).rsplit(".", 1)[-1]))
     plt.close(fig)

@@ -20,12 +20,12 @@ TRUTH = NOMINAL.replace(rho_l=2e12)
 CONDITIONS = [(6000.0, 3.0), (6000.0, 5.0), (6000.0, 7.0)]
 
 
-def _diagnose(tmp_path_factory, name, truth, seed):
+def _diagnose(tmp_path_factory, name, truth, seed, conditions=CONDITIONS, repetitions=2, candidates=None):
     folder = tmp_path_factory.mktemp(name)
-    drawn = generate_dataset(folder / "data", truth, NOMINAL, CONDITIONS, repetitions=2, reset=1.0, hold=5.0,
-                             measurement=Measurement(rho_spread=0.03), seed=seed)
+    drawn = generate_dataset(folder / "data", truth, NOMINAL, conditions, repetitions=repetitions, reset=1.0,
+                             hold=5.0, measurement=Measurement(rho_spread=0.03), seed=seed)
     ds = read_dataset(folder / "data")
-    D = diagnosis.diagnose(ds, executor=None)
+    D = diagnosis.diagnose(ds, executor=None, candidates=candidates)
     report = diagnosis.write_report(D, folder / "out")
     return D, report, drawn, folder / "out"
 
@@ -71,6 +71,57 @@ def test_a_wrong_nominal_value_is_corrected_not_taken_for_missing_physics(tmp_pa
     assert report["fit"]["improved"]["heldout_rmse"] <= 0.5 * report["fit"]["baseline"]["heldout_rmse"]
     check_improved(D, report, out, fmu=True)
     assert "nominal values corrected: t_lz" in (out / "improved.toml").read_text()
+
+
+def _entries(*names):
+    return [e for e in diagnosis.PHYSICS + diagnosis.NOMINAL if e.name in names]
+
+
+def test_one_condition_suggests_a_nominal_value_but_does_not_correct_it(tmp_path_factory):
+    """Repetitions of one condition: nothing can be held out, so the t_lz the training fit
+    moves (to the truth's 13 um) is an unverified suggestion, not a correction: the final
+    model and improved.toml keep the nominal 10 um, and the report says why."""
+    D, report, _, out = _diagnose(tmp_path_factory, "one_condition", TRUTH.replace(t_lz=13e-6), 13,
+                                  conditions=[(6000.0, 5.0)], candidates=diagnosis.NOMINAL)
+    assert [e.name for e in D.chain] == ["nominal:t_lz"]               # the rounds chose it on training data
+    assert D.kept == [] and not D.improved and [e.name for e in D.unverified] == ["nominal:t_lz"]
+    assert report["fit"]["improved"] is None and report["missing_physics"] == []
+    assert "t_lz" not in report["corrected_parameters"] and report["nothing_held_out"] == "one condition"
+    assert not report["corrected_parameters"]["rho_l"]["heldout_checked"]
+    (u,) = report["unverified_suggestions"]
+    assert u["name"] == "t_lz" and u["kind"] == "nominal" and u["nominal"] == pytest.approx(10e-6)
+    assert u["suggested"] == pytest.approx(13e-6, rel=0.05) and "nothing could be held out" in u["reason"]
+    assert "nothing could be held out (one condition): t_lz listed as unverified suggestions, not corrections" in \
+        report["conclusion"] and "corrected" not in report["conclusion"].replace("not corrections", "")
+    on_disk = json.loads((out / "report.json").read_text())
+    assert set(on_disk) >= {"mismatch", "missing_physics", "corrected_parameters", "located", "fit",
+                            "unverified_suggestions"}
+    md = (out / "report.md").read_text()
+    assert "## Unverified suggestions" in md and "Nothing could be held out (one condition)" in md
+    text = (out / "improved.toml").read_text()
+    from dfa_model import parameters
+    assert parameters.load(out / "improved.toml").t_lz == NOMINAL.t_lz
+    assert "nominal values corrected" not in text and "suggested t_lz: 1.3" in text
+    check_improved(D, report, out)
+
+
+def test_one_recording_names_no_physics(tmp_path_factory):
+    """A single recording of a device with a hidden stiffness: the stiffness the training
+    fit adds is listed as an unverified suggestion, not as missing physics; improved.toml
+    keeps k = 0."""
+    D, report, _, out = _diagnose(tmp_path_factory, "one_recording", TRUTH.replace(k=300.0), 7,
+                                  conditions=[(6000.0, 5.0)], repetitions=1,
+                                  candidates=_entries("stiffness", "nominal:t_lz"))
+    assert D.kept == [] and [e.name for e in D.unverified] == ["stiffness"]
+    assert report["missing_physics"] == [] and D.missing_physics == []
+    (u,) = report["unverified_suggestions"]
+    assert u["kind"] == "physics" and u["nominal"] == {"k": 0.0} and u["suggested"]["k"] > 100.0
+    assert "stiffness listed as unverified suggestions, not missing physics" in report["conclusion"]
+    assert "missing physics:" not in report["conclusion"]
+    from dfa_model import parameters
+    assert parameters.load(out / "improved.toml").k == 0.0
+    assert "suggested physics stiffness: k = " in (out / "improved.toml").read_text()
+    assert "stiffness (physics)" in (out / "report.md").read_text()
 
 
 def test_dfa_diagnose_bad_dataset_is_one_line(tmp_path, capsys):
