@@ -8,7 +8,7 @@ allowed before the header.
 
 Checks (each failure is one line naming the file and, where there is one, the row as
 its line number in the file):
-- the folder exists, holds `actuator.toml` and at least one CSV;
+- the folder exists, holds `actuator.toml` and at least one recording (dataset.toml below);
 - the header has the four columns; every value is a finite number;
 - time starts within one sample of 0 and strictly increases (a repeated or backward time
   is an error: which sample is right cannot be told);
@@ -19,9 +19,48 @@ its line number in the file):
   levels +A, 0, -A of the recording's amplitude A (within LEVEL_TOL of A), and the hold
   (the last stretch) is not 0 V.
 
-Lab exports: a UTF-8 byte-order mark is skipped; the delimiter is a comma, else the
-header row's semicolon or tab; a row of units under the header (UNITS) converts each
-column to SI (noted).
+Lab exports: a UTF-8 byte-order mark is skipped; CRLF (or CR) line ends read as line ends;
+the delimiter is a comma, else the header row's semicolon or tab; a row of units under the
+header (UNITS) converts each column to SI (noted). A field longer than csv's limit
+(csv.field_size_limit(), 131072 characters) is one line naming the row.
+
+dataset.toml (optional; without it, the contract above exactly: *.csv only, our column
+names, SI). Read by read_layout into a Layout:
+
+    [columns]      # our name = the file's column (or channel) name, compared case-blind
+    time = "Time (s)"
+    voltage = "HV monitor"
+    [units]        # per our column, a unit of UNITS: converted to SI (noted)
+    voltage = "kV"
+    stroke = "mm"
+    [files]        # optional
+    include = ["*.csv", "*.h5"]   # default *.csv, *.h5, *.hdf5, *.tdms (any other file: CSV text)
+    max_bytes = 2_000_000_000     # default MAX_BYTES
+    [hdf5]         # optional: where the channels are (default the root), a sample time
+    group = "/run1"
+    dt = 0.001     # s, for files without a time channel (it wins over their dt attribute)
+    [tdms]         # optional: the group of the channels (default the file's only group)
+    group = "Analog"
+
+An unknown table or key, a unit not in UNITS, a named column missing from a file, a units
+row disagreeing with [units]: one line naming the key, what was found and what is allowed.
+The mapping and units apply to every format. Two files with one stem (a.csv, a.h5) are
+refused: the report names recordings by stem.
+
+Binary formats (optional extras, `pip install "dfa-toolkit[hdf5]"` / `[tdms]`; a file of
+one without its library is one line naming the extra):
+- HDF5 (.h5, .hdf5; h5py): one 1-D numeric dataset per channel in [hdf5] group;
+- NI TDMS (.tdms; npTDMS): the channels of one group.
+Either may lack a time channel: the sample time then gives it, t = offset + i dt (noted):
+HDF5 [hdf5] dt, else a `dt` or `wf_increment` attribute of the group or a channel
+(`wf_start_offset` the offset, default 0); TDMS the channels' `wf_increment` and
+`wf_start_offset` properties (which must agree). A time channel, when there is one, wins.
+Errors in them say "sample i" (counted from 0) where CSV says "row" (the line).
+
+Size: a file above MAX_BYTES (1 GiB; dataset.toml [files] max_bytes sets another limit)
+is refused before any of it is read, with its size and the limit. Every reading failure
+(an unreadable, damaged or foreign file) is one RecordingError line, which `dfa diagnose`
+prints as `dfa: error: ...` (exit 2).
 
 Documented handling (listed in Recording.notes, which the diagnosis report states):
 - gaps: a time step above GAP_FACTOR x the median step is kept as it is (the model runs
@@ -43,7 +82,11 @@ switch before the hold) and 'hold' (the final constant level), the paper's routi
 from __future__ import annotations
 
 import csv
+import importlib
 import math
+import os
+import struct
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -65,6 +108,15 @@ FORCE_WINDOW = 51         # samples of the moving mean that judges (and gives) a
 MAX_KV_LOOKING = 50.0     # a recording whose |voltage| never exceeds this (V) is in kV
 MAX_FORCE = 1000.0        # N: above this a force column is not a DFA load in newtons
 MAX_STROKE = 0.1          # m: no DFA strokes 10 cm (without the actuator: the bound for mm)
+MAX_BYTES = 2 ** 30       # 1 GiB: a larger file is refused unread (a day at 1 kHz is ~0.5 GB of CSV);
+                          # dataset.toml [files] max_bytes sets another limit
+CONFIG = "dataset.toml"   # the optional description of a dataset's files (Layout)
+# dataset.toml: its tables and their keys
+TABLES = {"columns": REQUIRED + OPTIONAL, "units": REQUIRED + OPTIONAL, "files": ("include", "max_bytes"),
+          "hdf5": ("group", "dt"), "tdms": ("group",)}
+BINARY = (".h5", ".hdf5", ".tdms")
+DEFAULT_INCLUDE = ("*.csv", "*.h5", "*.hdf5", "*.tdms")   # with a dataset.toml; without one, *.csv
+EXTRAS = {"hdf5": ("h5py", "HDF5"), "tdms": ("nptdms", "TDMS")}   # extra -> (module, format)
 
 
 class RecordingError(ValueError):
@@ -73,7 +125,8 @@ class RecordingError(ValueError):
 
 @dataclass
 class Recording:
-    """One measured test. Arrays in SI units; `line` maps sample i to its line in the file."""
+    """One measured test. Arrays in SI units; `line` maps sample i to its line in the file
+    (in a binary file, HDF5 or TDMS: i itself)."""
 
     name: str
     path: Path
@@ -129,7 +182,22 @@ class Dataset:
 
 # ------------------------------------------------------------------------ reading
 def _where(path, line=None) -> str:
-    return f"{path.name}, row {line}" if line is not None else path.name
+    # a binary recording has no rows: its samples are counted from 0, as its arrays index them
+    word = "sample" if path.suffix.lower() in BINARY else "row"
+    return f"{path.name}, {word} {line}" if line is not None else path.name
+
+
+def _show(text, n=60) -> str:
+    """A file's text in a message: cut short (a message stays one line of sense)."""
+    text = str(text).strip()
+    return text if len(text) <= n else text[:n] + "..."
+
+
+def _size(n) -> str:
+    for unit, f in (("GiB", 2 ** 30), ("MiB", 2 ** 20), ("KiB", 2 ** 10)):
+        if n >= f:
+            return f"{n / f:.3g} {unit}"
+    return f"{n} bytes"
 
 
 # a units row under the header: the units each column may be given in, with their factor to SI
@@ -138,6 +206,149 @@ UNITS = {"time": {"s": 1.0, "ms": 1e-3},
          "force": {"n": 1.0, "mn": 1e-3},
          "stroke": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6},
          "current": {"a": 1.0, "ma": 1e-3, "ua": 1e-6, "µa": 1e-6, "na": 1e-9}}
+
+
+# ------------------------------------------------------------------------ dataset.toml
+@dataclass
+class Layout:
+    """How a dataset's files name and scale the channels: dataset.toml (module docstring).
+    The defaults are the contract (no dataset.toml): our column names, SI, *.csv."""
+
+    columns: dict = field(default_factory=dict)   # our column -> the file's column / channel name
+    units: dict = field(default_factory=dict)     # our column -> (unit as written, factor to SI)
+    include: tuple = ("*.csv",)
+    max_bytes: int | None = None                  # None: MAX_BYTES (read when a file is checked)
+    hdf5_group: str = "/"
+    hdf5_dt: float | None = None
+    tdms_group: str | None = None
+    source: str | None = None                     # "dataset.toml" when read from one
+
+
+def _keys(table, name, allowed) -> None:
+    unknown = [k for k in table if k not in allowed]
+    if unknown:
+        raise RecordingError(f"{CONFIG}: unknown key [{name}] {unknown[0]}; allowed: {', '.join(allowed)}")
+
+
+def _text(name, key, v) -> str:
+    if not isinstance(v, str) or not v.strip():
+        raise RecordingError(f"{CONFIG}: [{name}] {key} = {v!r}: text expected")
+    return v
+
+
+def _positive(name, key, v, integer=False) -> float:
+    ok = isinstance(v, int) if integer else isinstance(v, (int, float)) and math.isfinite(v)
+    if isinstance(v, bool) or not ok or v <= 0:
+        raise RecordingError(f"{CONFIG}: [{name}] {key} = {v!r}: a positive "
+                             f"{'whole number of bytes' if integer else 'number (s)'} expected")
+    return v
+
+
+def read_layout(folder) -> Layout:
+    """The folder's dataset.toml as a Layout; no dataset.toml: the defaults (the contract)."""
+    path = Path(folder) / CONFIG
+    if not path.is_file():
+        return Layout()
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RecordingError(f"{CONFIG}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise RecordingError(f"{CONFIG}: not valid TOML: {exc}") from None
+    for name, table in data.items():
+        if name not in TABLES:
+            what = f"table [{name}]" if isinstance(table, dict) else f"key {name}"
+            raise RecordingError(f"{CONFIG}: unknown {what}; allowed tables: "
+                                 f"{', '.join('[' + t + ']' for t in TABLES)}")
+        if not isinstance(table, dict):
+            raise RecordingError(f"{CONFIG}: {name} = {_show(repr(table))}: a table [{name}] expected")
+        _keys(table, name, TABLES[name])
+    out = Layout(include=DEFAULT_INCLUDE, source=CONFIG)
+    for c, v in data.get("columns", {}).items():
+        out.columns[c] = _text("columns", c, v)
+    named = {}
+    for c, v in out.columns.items():
+        if v.strip().lower() in named:
+            raise RecordingError(f"{CONFIG}: [columns] {named[v.strip().lower()]} and {c} both name {v!r}")
+        named[v.strip().lower()] = c
+    for c, v in data.get("units", {}).items():
+        u = _text("units", c, v).strip().lower()
+        if u not in UNITS[c]:
+            raise RecordingError(f"{CONFIG}: [units] {c} = {v!r}: not a unit of {c}; allowed: {', '.join(UNITS[c])}")
+        out.units[c] = (v.strip(), UNITS[c][u])
+    files = data.get("files", {})
+    if "include" in files:
+        inc = files["include"]
+        if not isinstance(inc, list) or not inc:
+            raise RecordingError(f"{CONFIG}: [files] include = {_show(repr(inc))}: a list of patterns expected "
+                                 f"(e.g. [\"*.csv\", \"*.h5\"])")
+        for g in inc:
+            # patterns within the folder: Path.glob refuses absolute ones, '..' leaves the dataset
+            if not isinstance(g, str) or not g.strip() or g.startswith(("/", "\\")) or ".." in g:
+                raise RecordingError(f"{CONFIG}: [files] include has {g!r}: a file pattern within the folder "
+                                     f"expected (e.g. \"*.csv\")")
+        out.include = tuple(inc)
+    if "max_bytes" in files:
+        out.max_bytes = _positive("files", "max_bytes", files["max_bytes"], integer=True)
+    h5 = data.get("hdf5", {})
+    if "group" in h5:
+        out.hdf5_group = _text("hdf5", "group", h5["group"])
+    if "dt" in h5:
+        out.hdf5_dt = float(_positive("hdf5", "dt", h5["dt"]))
+    if "group" in data.get("tdms", {}):
+        out.tdms_group = _text("tdms", "group", data["tdms"]["group"])
+    return out
+
+
+# ------------------------------------------------------------------------ common to all formats
+def _check_size(path, layout) -> None:
+    """Refuse a file above the size limit before reading any of it."""
+    limit = MAX_BYTES if layout.max_bytes is None else layout.max_bytes
+    try:
+        n = os.stat(path).st_size
+    except OSError as exc:
+        raise RecordingError(f"{path.name}: cannot read: {exc.strerror or exc}") from None
+    if n > limit:
+        src = (f"{CONFIG} [files] max_bytes" if layout.max_bytes is not None else
+               f"MAX_BYTES; {CONFIG} [files] max_bytes sets it")
+        raise RecordingError(f"{path.name}: {_size(n)} ({n} bytes), above the limit of {_size(limit)} ({limit} "
+                             f"bytes, {src}): refused unread")
+
+
+def _select(path, names, layout, where, found, time_optional=False) -> dict:
+    """our column -> index in `names` (the file's columns or channels, compared stripped and
+    case-blind): dataset.toml [columns] names it, else our own name does. time_optional: a
+    binary file's time channel may be absent (even if named: one dataset.toml serves CSV
+    files with a time column and binary ones with a sample time)."""
+    norm = [n.strip().lower() for n in names]
+    cols = {}
+    for c in REQUIRED + OPTIONAL:
+        want = layout.columns.get(c, c).strip().lower()
+        if want in norm:
+            cols[c] = norm.index(want)
+        elif c in layout.columns and not (c == "time" and time_optional):
+            raise RecordingError(f"{where}: [columns] {c} = {layout.columns[c]!r} ({CONFIG}) is not in {found}")
+    missing = [c for c in REQUIRED if c not in cols and not (c == "time" and time_optional)]
+    if missing:
+        raise RecordingError(f"{where}: missing column(s) {', '.join(missing)} in {found} (expected "
+                             f"{','.join(REQUIRED)}[,current]" + (f", or named in {CONFIG} [columns])"
+                                                                 if layout.source else ")"))
+    dup = sorted({c for c, j in cols.items() if norm.count(norm[j]) > 1}, key=(REQUIRED + OPTIONAL).index)
+    if dup:
+        raise RecordingError(f"{where}: column(s) {', '.join(names[cols[c]].strip() for c in dup)} appear more "
+                             f"than once")
+    return cols
+
+
+def _mapping_note(named) -> list:
+    """named: our column -> the file's name for it."""
+    renamed = [f"{c} = '{n.strip()}'" for c, n in named.items() if n.strip().lower() != c]
+    return [f"columns named in {CONFIG}: {', '.join(renamed)}"] if renamed else []
+
+
+def _units_note(scale, source) -> list:
+    conv = [f"{c} x {f:g}" for c, f in scale.items() if f != 1.0]
+    return [f"{source}: {', '.join(conv)} to SI"] if conv else []
 
 
 def _is_units_row(row, cols) -> bool:
@@ -151,23 +362,48 @@ def _is_units_row(row, cols) -> bool:
     return all(j < len(row) and row[j].strip() and not num(row[j].strip()) for j in cols.values())
 
 
-def _units(path, line, row, cols) -> dict:
+def _units(path, line, row, cols, layout) -> dict:
+    """The units row's factors to SI; a dataset.toml [units] entry must agree with it."""
     out = {}
     for c, j in cols.items():
         u = row[j].strip().strip("[]()").lower()
         if u not in UNITS[c]:
-            raise RecordingError(f"{_where(path, line)}: {c} in unit '{row[j].strip()}' (units row); allowed: "
+            raise RecordingError(f"{_where(path, line)}: {c} in unit '{_show(row[j], 20)}' (units row); allowed: "
                                  f"{', '.join(UNITS[c])}")
+        if c in layout.units and layout.units[c][1] != UNITS[c][u]:
+            raise RecordingError(f"{_where(path, line)}: {c} in '{row[j].strip()}' (units row) but in "
+                                 f"'{layout.units[c][0]}' ({CONFIG} [units] {c}): they must agree")
         out[c] = UNITS[c][u]
     return out
 
 
-def read_csv(path, x_e: float | None = None) -> Recording:
+def _rows(path, lines, first, delim):
+    """(line number, row) of CSV text lines from line `first`; what csv cannot read (a field
+    above its limit, csv.field_size_limit()) is one line naming the row."""
+    reader = csv.reader(lines, delimiter=delim)
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            line = first + reader.line_num - 1
+            what = (f"a field longer than {csv.field_size_limit()} characters (no value of a recording is)"
+                    if "field larger than field limit" in str(exc) else f"not readable as CSV ({exc})")
+            raise RecordingError(f"{_where(path, line)}: {what}") from None
+        yield first + reader.line_num - 1, row
+
+
+def read_csv(path, x_e: float | None = None, layout: Layout | None = None) -> Recording:
     """Read and check one recording (module docstring). x_e: the actuator's full stroke
-    (m), which bounds the stroke column (read_dataset gives it); without it, MAX_STROKE."""
+    (m), which bounds the stroke column (read_dataset gives it); without it, MAX_STROKE.
+    layout: the dataset's dataset.toml (read_layout); without it, the contract's names in SI."""
     path = Path(path)
+    layout = layout or Layout()
+    _check_size(path, layout)
     try:
-        text = path.read_text(encoding="utf-8-sig")     # a spreadsheet's byte-order mark is not the header
+        # a spreadsheet's byte-order mark is not the header; CRLF and CR read as line ends
+        text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise RecordingError(f"{path.name}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
     lines = text.splitlines()
@@ -179,23 +415,18 @@ def read_csv(path, x_e: float | None = None) -> Recording:
     # the delimiter: a comma, else what the header row uses (a semicolon or a tab, as
     # spreadsheets with a decimal comma and some DAQ exports write)
     delim = "," if "," in lines[k] else next((d for d in (";", "\t") if d in lines[k]), ",")
-    header = [h.strip().lower() for h in next(csv.reader([lines[k]], delimiter=delim))]
-    missing = [c for c in REQUIRED if c not in header]
-    if missing:
-        raise RecordingError(f"{_where(path, k + 1)}: missing column(s) {', '.join(missing)} in the header "
-                             f"'{lines[k].strip()}' (expected {','.join(REQUIRED)}[,current])")
-    dup = sorted({h for h in header if header.count(h) > 1 and h in REQUIRED + OPTIONAL})
-    if dup:
-        raise RecordingError(f"{_where(path, k + 1)}: column(s) {', '.join(dup)} appear more than once")
-    cols = {c: header.index(c) for c in REQUIRED + OPTIONAL if c in header}
-    extra = [h for h in header if h not in cols]
+    names = next(_rows(path, [lines[k]], k + 1, delim))[1]
+    header = [h.strip().lower() for h in names]
+    cols = _select(path, names, layout, _where(path, k + 1), f"the header '{_show(lines[k], 120)}'")
+    extra = [h for j, h in enumerate(header) if j not in cols.values()]
     rows, line_no = [], []
-    scale, units_row = {c: 1.0 for c in cols}, None
-    for i, row in enumerate(csv.reader(lines[k + 1:], delimiter=delim), start=k + 2):
+    scale = {c: layout.units[c][1] if c in layout.units else 1.0 for c in cols}
+    units_row = None
+    for i, row in _rows(path, lines[k + 1:], k + 2, delim):
         if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
             continue
         if not rows and units_row is None and _is_units_row(row, cols):
-            scale, units_row = _units(path, i, row, cols), i
+            scale, units_row = _units(path, i, row, cols, layout), i
             continue
         if len(row) < len(header):
             raise RecordingError(f"{_where(path, i)}: {len(row)} values, the header has {len(header)} columns")
@@ -205,7 +436,7 @@ def read_csv(path, x_e: float | None = None) -> Recording:
             try:
                 v = float(s)
             except ValueError:
-                raise RecordingError(f"{_where(path, i)}: {c} is '{s}', not a number") from None
+                raise RecordingError(f"{_where(path, i)}: {c} is '{_show(s, 40)}', not a number") from None
             if not math.isfinite(v):
                 raise RecordingError(f"{_where(path, i)}: {c} is {s} (values must be finite numbers)")
             vals.append(v)
@@ -214,8 +445,188 @@ def read_csv(path, x_e: float | None = None) -> Recording:
     if len(rows) < MIN_SAMPLES:
         raise RecordingError(f"{path.name}: {len(rows)} data rows, at least {MIN_SAMPLES} needed")
     a = np.array(rows)
-    line = np.array(line_no)
     data = {c: a[:, n] * scale[c] for n, c in enumerate(cols)}
+    notes = _mapping_note({c: names[j] for c, j in cols.items()})
+    notes += _units_note(scale, f"units row (line {units_row})" if units_row is not None else f"{CONFIG} [units]")
+    if extra:
+        notes.append(f"ignored column(s) {', '.join(extra)}")
+    return _recording(path, data, np.array(line_no), notes, x_e)
+
+
+# ------------------------------------------------------------------------ binary formats
+def _library(path, kind):
+    """The optional reader of a binary format (pyproject extras hdf5, tdms)."""
+    module, fmt = EXTRAS[kind]
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise RecordingError(f"{path.name}: reading {fmt} needs the optional {module} package: "
+                             f"pip install \"dfa-toolkit[{kind}]\"") from None
+
+
+def _unreadable(path, fmt, exc) -> RecordingError:
+    # the libraries raise OSError, KeyError, ValueError, ... on a damaged file: one line of it
+    first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    return RecordingError(f"{path.name}: cannot read as {fmt}: {_show(first, 120)}")
+
+
+def _channels(path, names, layout, found) -> dict:
+    """our column -> channel name, time optional (a sample time may give it)."""
+    cols = _select(path, names, layout, path.name, found, time_optional=True)
+    return {c: names[j] for c, j in cols.items()}
+
+
+def _array(path, c, name, a) -> np.ndarray:
+    a = np.asarray(a)
+    if a.ndim != 1:
+        raise RecordingError(f"{path.name}: channel '{name}' ({c}) has shape {a.shape}; one 1-D array per channel "
+                             f"expected")
+    if a.dtype.kind not in "iuf":
+        raise RecordingError(f"{path.name}: channel '{name}' ({c}) holds {a.dtype} values, not numbers")
+    return a.astype(float)
+
+
+def _seconds(path, value, source, positive=True) -> float:
+    """A time attribute or property (a number, or an array of one) in seconds."""
+    try:
+        x = float(np.asarray(value, dtype=float).reshape(-1)[0]) if np.size(value) == 1 else math.nan
+    except (TypeError, ValueError):
+        x = math.nan
+    if not math.isfinite(x) or (positive and x <= 0):
+        raise RecordingError(f"{path.name}: {source} is {_show(repr(value), 40)}: a "
+                             f"{'positive ' if positive else ''}number of seconds expected")
+    return x
+
+
+def _binary(path, data, names, notes, layout, dt, x_e) -> Recording:
+    """A binary recording's channels (our column -> array, as stored) to a Recording: the
+    lengths agree, the values are finite, units to SI, time from a sample time if absent."""
+    n = {c: a.size for c, a in data.items()}
+    if len(set(n.values())) > 1:
+        raise RecordingError(f"{path.name}: channels of different lengths: " +
+                             ", ".join(f"{c} ('{names[c]}') {m}" for c, m in n.items()))
+    size = next(iter(n.values()))
+    if size < MIN_SAMPLES:
+        raise RecordingError(f"{path.name}: {size} samples, at least {MIN_SAMPLES} needed")
+    for c, a in data.items():
+        bad = np.nonzero(~np.isfinite(a))[0]
+        if bad.size:
+            raise RecordingError(f"{_where(path, int(bad[0]))}: {c} is {a[bad[0]]} (values must be finite numbers)")
+    scale = {c: layout.units[c][1] if c in layout.units else 1.0 for c in data}
+    data = {c: a * scale[c] for c, a in data.items()}
+    notes = _mapping_note(names) + _units_note(scale, f"{CONFIG} [units]") + notes
+    if "time" not in data:
+        step, offset, source = dt
+        data["time"] = offset + step * np.arange(size)
+        notes.append(f"no time channel: time from the sample time {step:g} s ({source})" +
+                     (f", starting at {offset:g} s" if offset else ""))
+    return _recording(path, data, np.arange(size), notes, x_e)
+
+
+def read_hdf5(path, x_e: float | None = None, layout: Layout | None = None) -> Recording:
+    """One recording in HDF5 (h5py): one 1-D dataset per channel in the group [hdf5] group
+    (default the root), named as in CSV (dataset.toml [columns] maps them); without a time
+    channel the sample time is [hdf5] dt, else a `dt` or `wf_increment` attribute of the
+    group or of a channel (and `wf_start_offset`, default 0, its start)."""
+    path = Path(path)
+    layout = layout or Layout()
+    _check_size(path, layout)
+    h5py = _library(path, "hdf5")
+    try:
+        with h5py.File(path, "r") as f:
+            g = f.get(layout.hdf5_group)
+            if not isinstance(g, h5py.Group):
+                groups = ["/"]
+                f.visititems(lambda name, o: groups.append("/" + name) if isinstance(o, h5py.Group) else None)
+                raise RecordingError(f"{path.name}: no group '{layout.hdf5_group}' ([hdf5] group); its groups: "
+                                     f"{_show(', '.join(groups), 120)}")
+            names = [k for k, v in g.items() if isinstance(v, h5py.Dataset)]
+            chans = _channels(path, names, layout, f"the channels of group '{g.name}' "
+                                                   f"({_show(', '.join(names) or 'none', 120)})")
+            data = {c: _array(path, c, name, g[name][()]) for c, name in chans.items()}
+            dt = None
+            if "time" not in chans:
+                dt = _hdf5_dt(path, g, [g[chans[c]] for c in chans], layout)
+    except RecordingError:
+        raise
+    except (OSError, LookupError, ValueError, TypeError, RuntimeError) as exc:
+        raise _unreadable(path, "HDF5", exc) from None
+    return _binary(path, data, chans, [], layout, dt, x_e)
+
+
+def _hdf5_dt(path, group, channels, layout) -> tuple:
+    """(sample time, start, where it came from) of an HDF5 recording without a time channel."""
+    if layout.hdf5_dt is not None:
+        return layout.hdf5_dt, 0.0, f"{CONFIG} [hdf5] dt"
+    for obj in [group] + channels:
+        for key in ("dt", "wf_increment"):
+            if key in obj.attrs:
+                where = f"attribute {key} of '{obj.name}'"
+                t0 = _seconds(path, obj.attrs.get("wf_start_offset", 0.0), f"attribute wf_start_offset of "
+                                                                            f"'{obj.name}'", positive=False)
+                return _seconds(path, obj.attrs[key], where), t0, where
+    raise RecordingError(f"{path.name}: no time channel ('{layout.columns.get('time', 'time')}') and no sample "
+                         f"time (a dt or wf_increment attribute, or {CONFIG} [hdf5] dt)")
+
+
+def read_tdms(path, x_e: float | None = None, layout: Layout | None = None) -> Recording:
+    """One recording in NI TDMS (npTDMS): the channels of one group ([tdms] group, else the
+    file's only group), named as in CSV (dataset.toml [columns] maps them); without a time
+    channel, time from the channels' wf_increment and wf_start_offset properties."""
+    path = Path(path)
+    layout = layout or Layout()
+    _check_size(path, layout)
+    nptdms = _library(path, "tdms")
+    try:
+        f = nptdms.TdmsFile.read(path)
+        groups = {g.name: g for g in f.groups()}
+        if layout.tdms_group is None and len(groups) != 1:
+            raise RecordingError(f"{path.name}: {len(groups)} groups ({_show(', '.join(groups) or 'none', 120)}): "
+                                 f"name the one with the channels in {CONFIG} [tdms] group")
+        name = layout.tdms_group or next(iter(groups))
+        if name not in groups:
+            raise RecordingError(f"{path.name}: no group '{name}' ([tdms] group); its groups: "
+                                 f"{_show(', '.join(groups) or 'none', 120)}")
+        channels = {ch.name: ch for ch in groups[name].channels()}
+        chans = _channels(path, list(channels), layout, f"the channels of group '{name}' "
+                                                        f"({_show(', '.join(channels) or 'none', 120)})")
+        data = {c: _array(path, c, ch, channels[ch][:]) for c, ch in chans.items()}
+        props = {c: dict(channels[ch].properties) for c, ch in chans.items()}
+    except RecordingError:
+        raise
+    except (OSError, LookupError, ValueError, TypeError, RuntimeError, EOFError, struct.error) as exc:
+        raise _unreadable(path, "TDMS", exc) from None
+    return _binary(path, data, chans, [], layout, None if "time" in chans else _tdms_dt(path, chans, props, layout),
+                   x_e)
+
+
+def _tdms_dt(path, chans, props, layout) -> tuple:
+    """(sample time, start, where) from the channels' waveform properties; they must agree."""
+    found = {c: (_seconds(path, p["wf_increment"], f"wf_increment of '{chans[c]}'"),
+                 _seconds(path, p.get("wf_start_offset", 0.0), f"wf_start_offset of '{chans[c]}'", positive=False))
+             for c, p in props.items() if "wf_increment" in p}
+    if not found:
+        raise RecordingError(f"{path.name}: no time channel ('{layout.columns.get('time', 'time')}') and no "
+                             f"wf_increment property on the channels to give the sample time")
+    if len(set(found.values())) > 1:
+        raise RecordingError(f"{path.name}: the channels' sample times disagree: " + ", ".join(
+            f"{c} wf_increment {dt:g} s, wf_start_offset {t0:g} s" for c, (dt, t0) in found.items()))
+    c, (dt, t0) = next(iter(found.items()))
+    return dt, t0, f"wf_increment of '{chans[c]}'"
+
+
+READERS = {".h5": read_hdf5, ".hdf5": read_hdf5, ".tdms": read_tdms}
+
+
+def read_recording(path, x_e: float | None = None, layout: Layout | None = None) -> Recording:
+    """One recording of any format, by its suffix: HDF5 (.h5, .hdf5), TDMS (.tdms), else CSV text."""
+    path = Path(path)
+    return READERS.get(path.suffix.lower(), read_csv)(path, x_e, layout)
+
+
+def _recording(path, data, line, notes, x_e) -> Recording:
+    """The checks every format shares (time, units, levels) and the interpretation.
+    data: our column -> SI array; line: each sample's row in the file (sample index if binary)."""
     t = data["time"]
     dt = np.diff(t)
     bad = np.nonzero(dt <= 0)[0]
@@ -229,11 +640,7 @@ def read_csv(path, x_e: float | None = None) -> Recording:
         raise RecordingError(f"{_where(path, line[0])}: time starts at {t[0]:g} s; it must start at 0 at the "
                              f"start of the protocol (reset stage first)")
     rec = Recording(path.stem, path, t, data["voltage"], data["force"], data["stroke"], data.get("current"), line)
-    if units_row is not None and any(v != 1.0 for v in scale.values()):
-        rec.notes.append("units row (line " + str(units_row) + "): " + ", ".join(
-            f"{c} x {scale[c]:g}" for c in cols if scale[c] != 1.0) + " to SI")
-    if extra:
-        rec.notes.append(f"ignored column(s) {', '.join(extra)}")
+    rec.notes.extend(notes)
     gaps = np.nonzero(dt > GAP_FACTOR * step)[0]
     if gaps.size:
         spans = ", ".join(f"{t[g]:.4g}-{t[g + 1]:.4g} s" for g in gaps[:5]) + (" ..." if gaps.size > 5 else "")
@@ -349,6 +756,14 @@ def _interpret(rec: Recording) -> None:
         rec.load = Load(Fm)
 
 
+def _files(folder, layout) -> list:
+    """The recordings: the files matching [files] include (one list, sorted by name)."""
+    found = set()
+    for g in layout.include:
+        found.update(f for f in folder.glob(g) if f.is_file() and f.name not in ("actuator.toml", CONFIG))
+    return sorted(found)
+
+
 def read_dataset(folder) -> Dataset:
     """The actuator and every recording of a dataset folder, checked (module docstring)."""
     folder = Path(folder)
@@ -361,12 +776,23 @@ def read_dataset(folder) -> Dataset:
         params = load_parameters(toml)
     except ParameterError as exc:
         raise RecordingError(f"actuator.toml: {exc}") from None
-    files = sorted(folder.glob("*.csv"))
+    layout = read_layout(folder)
+    files = _files(folder, layout)
     if not files:
-        raise RecordingError(f"{folder}: no recordings (*.csv)")
+        # without a dataset.toml only CSV is read (the contract): say so when binary files lie there
+        binary = [] if layout.source else sorted(f.name for f in folder.iterdir() if f.suffix.lower() in BINARY)
+        raise RecordingError(f"{folder}: no recordings ({', '.join(layout.include)})" + (
+            f"; {binary[0]}{' ...' if len(binary) > 1 else ''} is read when the folder has a {CONFIG}" if binary
+            else ""))
+    stems = {}
+    for f in files:
+        if f.stem in stems:     # the report names a recording by its file's stem
+            raise RecordingError(f"{folder}: {stems[f.stem]} and {f.name} are both recording '{f.stem}'; "
+                                 f"rename one")
+        stems[f.stem] = f.name
     from .kinematics import make
     x_e = float(make(params).x_e)
-    recs = [read_csv(f, x_e) for f in files]
+    recs = [read_recording(f, x_e, layout) for f in files]
     group_conditions(recs)
     return Dataset(folder, params, recs)
 

@@ -8,7 +8,8 @@ import time
 def register(sub) -> None:
     from dfa_model import cli as base
     pd = sub.add_parser("diagnose", help="fit recordings, locate the mismatch, name and model the missing physics")
-    pd.add_argument("dataset", metavar="DATASET", help="a folder with actuator.toml and one CSV per test")
+    pd.add_argument("dataset", metavar="DATASET", help="a folder with actuator.toml and one CSV per test (or HDF5/TDMS "
+                    "files described by a dataset.toml)")
     pd.add_argument("--out", metavar="DIR", required=True, help="where report.json, report.md and the plots go")
     pd.add_argument("--workers", type=base._number(1, 1024, integer=True), help="local processes (default: all cores)")
     pd.add_argument("--scheduler", metavar="ADDRESS", help="run the full model on a dask.distributed scheduler")
