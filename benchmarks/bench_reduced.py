@@ -27,7 +27,7 @@ import time
 import warnings
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from dfa_model import PhysicsWarning, Protocol, preset, simulate  # noqa: E402
+from dfa_model import PhysicsWarning, Protocol, preset, simulate, waveforms  # noqa: E402
 
 import reduced  # noqa: E402
 from reduced import averaged  # noqa: E402
@@ -68,7 +68,7 @@ def main():
     # both timed through the metric users read (the trace and the window included)
 
     def fresh():   # a protocol the surrogate has not seen: its inputs built too
-        s._inputs.clear()
+        waveforms._SEGMENTS.clear()
         return s.simulate(proto, 5.0).unzipping_speed
     # interleaved rounds (the machine's load drifts: each median sees the same periods)
     tf, tr, tn = [], [], []

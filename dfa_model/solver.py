@@ -15,7 +15,7 @@ from .integrator import MAX_STEPS, NONFINITE, OK, OUTPUT_FULL, STEP_UNDERFLOW, i
 from .model import DFAModel
 from .parameters import ParameterError, Parameters, check_value
 from .results import Result
-from .waveforms import Load, Protocol, WaveformError, merge
+from .waveforms import Load, Protocol, WaveformError, segments
 
 _STATUS = {MAX_STEPS: "the step limit was reached", STEP_UNDERFLOW: "the step size fell below 1e-14 s",
            NONFINITE: "the solution became non-finite", OUTPUT_FULL: "the output reached its memory limit"}
@@ -81,7 +81,7 @@ def simulate(params, protocol, load=None, duration=None, *, t_eval=None, energy=
     load = protocol_load(protocol, load)
     p = model.params
     T = protocol.duration
-    t, V0, Vs, F0, Fs = merge(protocol.piecewise(), load.piecewise(T))
+    t, V0, Vs, F0, Fs = segments(protocol, load)
     mat = model.with_k(load.k_load)
     V_before = limits.finite_within("V_before", V_before, limits.MAX_VOLTAGE)
     y = _initial(model, x0, y0, V_before)

@@ -568,3 +568,33 @@ def build_protocol(voltage, duration, waveform="dc", frequency=None, duty=None, 
         stages.append(Stage(Bipolar(voltage, reset_frequency, 1.0), reset, "reset"))
     stages.append(Stage(wf, duration, "hold"))
     return Protocol(stages)
+
+
+# The kernels' input segments of recent protocols (segments()): building them costs about
+# a tenth of a full-model run of the standard protocol and as much as half a surrogate
+# run, and a process that runs one protocol on several models (dfa compare, sweeps,
+# fits) builds them once.
+_PURE_WAVEFORMS = (DC, Bipolar, Unipolar)   # segments a function of their fields and the stage duration
+SEGMENT_CACHE_MAX = 20_000                  # largest protocol (segments) whose inputs are kept
+_SEGMENTS: dict = {}
+
+
+def segments(protocol: Protocol, load: Load):
+    """merge(protocol.piecewise(), load.piecewise(duration)): (t, V0, Vs, F0, Fs), the
+    kernels' input segments. Those of recent protocols are kept, keyed on the text of
+    every field they depend on (a mutated protocol gets a new key): only for the stock
+    waveforms, a constant load and at most SEGMENT_CACHE_MAX segments. The arrays are
+    shared: the kernels only read them, and so must callers."""
+    key = None
+    if type(protocol) is Protocol and type(load) is Load and type(load.F) is float and \
+            all(type(st.waveform) in _PURE_WAVEFORMS for st in protocol.stages):
+        key = repr((load.F, [(type(st.waveform), vars(st.waveform), st.duration) for st in protocol.stages]))
+        seg = _SEGMENTS.get(key)
+        if seg is not None:
+            return seg
+    seg = merge(protocol.piecewise(), load.piecewise(protocol.duration))
+    if key is not None and len(seg[1]) <= SEGMENT_CACHE_MAX:
+        if len(_SEGMENTS) >= 16:
+            _SEGMENTS.clear()
+        _SEGMENTS[key] = seg
+    return seg

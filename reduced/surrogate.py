@@ -38,12 +38,10 @@ from dfa_model.parameters import Parameters
 from dfa_model.results import StrokeMetrics
 from dfa_model.solver import protocol_load
 from dfa_model.trace import StrokeTrace
-from dfa_model.waveforms import DC, Bipolar, Load, Protocol, Unipolar, merge
+from dfa_model.waveforms import Load, Protocol, segments
 
 FORMAT = "dfa-surrogate"
 VERSION = 4     # 4: material points + the front layer as an effective point (3: q_z, q_d, c_ell, beta_f)
-_PURE_WAVEFORMS = (DC, Bipolar, Unipolar)   # segments a function of their fields and the stage duration
-_SEG_CACHE = 20_000                         # largest protocol (segments) whose inputs are kept
 V_S_REL = 1e-8        # the front's side blends over v_s = V_S_REL l_e per second: continuous, all but sharp
 RTOL = 1e-4           # the fast path's tolerance: the stroke's local error bound is rtol (x + x_e)
 
@@ -117,7 +115,6 @@ class Surrogate:
         self.info = dict(info or {})
         law = from_parameters(params)
         self._law, self._lawp = int(law.law_id), np.ascontiguousarray(law.params, dtype=float)
-        self._inputs = {}       # merged input segments of recent protocols (_segments)
 
     # ------------------------------------------------------------------ structure
     @property
@@ -229,24 +226,9 @@ class Surrogate:
         return SurrogateResult(self, protocol, rec, time.perf_counter() - t0, steps, y_end, load)
 
     def _segments(self, protocol, load):
-        """merge(protocol, load): the kernel's input segments. Building them costs about
-        as much as a short run, so those of recent protocols are kept, keyed on the text
-        of every field they depend on (a mutated protocol gets a new key). Only for the
-        stock waveforms (segments a function of their fields and durations alone), a
-        constant load and at most _SEG_CACHE segments; the kernel only reads them."""
-        key = None
-        if type(protocol) is Protocol and type(load) is Load and type(load.F) is float and \
-                all(type(st.waveform) in _PURE_WAVEFORMS for st in protocol.stages):
-            key = repr((load.F, [(type(st.waveform), vars(st.waveform), st.duration) for st in protocol.stages]))
-            seg = self._inputs.get(key)
-            if seg is not None:
-                return seg
-        seg = merge(protocol.piecewise(), load.piecewise(protocol.duration))
-        if key is not None and len(seg[1]) <= _SEG_CACHE:
-            if len(self._inputs) >= 16:
-                self._inputs.clear()
-            self._inputs[key] = seg
-        return seg
+        """The kernel's input segments (dfa_model.waveforms.segments: shared with the full
+        model's runs of the same protocol in this process)."""
+        return segments(protocol, load)
 
     def _y0(self, y0):
         y = np.zeros(self.ny)
