@@ -155,3 +155,24 @@ def test_an_improved_model_edited_into_inconsistency_is_the_parameter_error(null
     r = dfa("simulate", "--params", bad, "--voltage", "6000", "--duration", "1", "--json")
     assert r.returncode == 2, (r.returncode, r.stderr)
     assert r.stderr.count("\n") == 1 and key in r.stderr and "Traceback" not in r.stderr, r.stderr
+
+
+def test_a_strong_screen_is_fitted_while_the_mismatch_is_large():
+    """Issue 24, item 3: a law of another shape predicted a 3 % held-out gain from its
+    first step (the shortlist asks 5 %) and was never fitted; the verdict read 'no missing
+    physics' at 8x the noise. While the current model's error is STRONG_ERROR noises or
+    more, a form whose first step predicts a BIC fall of BIC_MIN or more is fitted
+    whatever its held-out prediction; near the noise the held-out veto stands."""
+    from diagnosis.diagnose import BIC_MIN, shortlist
+    screens = {
+        "series_resistance": {"predicted_delta_bic": -400.0, "chi2_reduction": 420.0, "heldout_ratio": 0.6},
+        "field_dependent_resistivity (spline)": {"predicted_delta_bic": -300.0, "chi2_reduction": 320.0,
+                                                 "heldout_ratio": 0.97},
+        "inertia": {"predicted_delta_bic": -0.5 * BIC_MIN, "chi2_reduction": 20.0, "heldout_ratio": 0.99},
+        "stiffness": {"predicted_delta_bic": 5.0, "chi2_reduction": 2.0, "heldout_ratio": 1.2},
+    }
+    assert shortlist(screens) == ["series_resistance"]
+    strong = shortlist(screens, strong=True)
+    assert "field_dependent_resistivity (spline)" in strong and "series_resistance" in strong
+    # a weak screen (under BIC_MIN) or one predicting no fall at all stays out either way
+    assert "inertia" not in strong and "stiffness" not in strong
