@@ -3,9 +3,16 @@
 pythonfmu packs the slave (fmu/dfa_actuator.py) and its parameter file; this module then
 fixes what pythonfmu leaves out:
 
-- modelDescription.xml: units (UnitDefinitions and the unit of every Real), and the
-  ModelStructure's InitialUnknowns (FMI 2.0 requires the outputs with initial =
-  calculated there; pythonfmu writes only <Outputs>, which fmpy's validation rejects);
+- modelDescription.xml (_fix_description, the one place that writes these): the unit
+  of every Real in Modelica syntax ("Ohm.m", "N.s/m"; "1" if dimensionless), each
+  defined in <UnitDefinitions> with its SI base-unit exponents and display units
+  (fmu/units.py: "mm" for the stroke, "kV" for the voltage); min and max of every
+  parameter and input with a range (the slave modules' RANGES, from the checks their
+  setters make: dfa_model.limits and dfa_model.parameters.SPEC for the actuator);
+  nominal values of the actuator's voltage and outputs for the parameters it was built
+  from; and the ModelStructure's InitialUnknowns (FMI 2.0 requires the outputs with
+  initial = calculated there; pythonfmu writes only <Outputs>, which fmpy's validation
+  rejects). pythonfmu (0.7) writes none of the attributes itself;
 - the binary: ours (fmu/c/fmi2_loader.c and fmu/c/fmi2_python.c, compiled here with
   the system C compiler) replaces pythonfmu's library, which maps every Python exception
   to fmi2Fatal and destroys the instance (ours keeps the FMI state machine and checks
@@ -15,6 +22,7 @@ fixes what pythonfmu leaves out:
 """
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import subprocess
@@ -60,9 +68,27 @@ def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.Pa
         variant = script.resolve() != SLAVE
         if variant:
             shutil.copy2(SLAVE, src / SLAVE.name)
-        from .dfa_actuator import RANGES, UNITS
+        from .dfa_actuator import EXTRA, PARAM_RANGES, RANGES, UNITS
         return _package(script, cls, out, list(src.iterdir()), units=UNITS, serialize=True,
-                        beside=[SLAVE] if variant else [], ranges=RANGES, canGetAndSetFMUstate=True)
+                        beside=[SLAVE] if variant else [], ranges={**RANGES, **PARAM_RANGES},
+                        nominals=actuator_nominals(params, EXTRA["v_nominal"][1]), canGetAndSetFMUstate=True)
+
+
+def actuator_nominals(params: P.Parameters, v_nominal: float) -> dict:
+    """Nominal values (FMI's `nominal`: the magnitude a tool scales tolerances and plots
+    by) of the actuator's voltage and outputs, for `params` at the voltage v_nominal:
+    the stroke range x_e, the electrode length, the initial angle, the capacitance of
+    the unzipped actuator, the static zipping force and the stored energy at v_nominal.
+    Only finite positive values (FMI 2.0 requires nominal > 0)."""
+    from dfa_model.solver import zip_force_per_volt2
+    from dfa_model.stepper import OUTPUTS, Stepper
+    st = Stepper(params, v_nominal=v_nominal)
+    c0 = float(st.out[list(OUTPUTS).index("capacitance")])
+    values = {"voltage": v_nominal, "stroke": st.model.kin.x_e, "zipped_length": params.l_e,
+              "zipping_angle": params.theta0, "capacitance": c0,
+              "electrostatic_force": zip_force_per_volt2(st.model) * v_nominal ** 2,
+              "stored_energy": 0.5 * c0 * v_nominal ** 2}
+    return {k: float(v) for k, v in values.items() if math.isfinite(v) and v > 0}
 
 
 BUNDLED = "_dfa_model"     # the package's name inside the FMU (dfa_actuator.py imports it)
@@ -142,17 +168,19 @@ def build_companion_fmu(kind: str, out: str | os.PathLike, start: dict | None = 
         for fname, data in res.items():
             (Path(tmp) / fname).write_bytes(data)
         try:
-            return _package(HERE / f"{name}.py", cls, out, [Path(tmp) / f for f in res], units=module.UNITS)
+            return _package(HERE / f"{name}.py", cls, out, [Path(tmp) / f for f in res], units=module.UNITS,
+                            ranges=module.RANGES)
         except ValueError as exc:      # the slave refused a start value or a resource
             raise BuildError(f"{kind} FMU: {exc}") from None
 
 
 def _package(script: Path, cls: str, out, project_files, units: dict, serialize=False, beside=(), ranges=None,
-             **flags) -> Path:
+             nominals=None, **flags) -> Path:
     """pythonfmu packs the slave; _rewrite fixes the description (units: variable name ->
-    unit, the slave module's UNITS; ranges: variable name -> (min, max), its RANGES) and
-    adds our binary. `beside`: modules the script imports, copied next to it (pythonfmu
-    imports the script to read its interface)."""
+    unit, the slave module's UNITS; ranges: variable name -> (min, max), None for no
+    bound, its RANGES; nominals: variable name -> nominal value) and adds our binary.
+    `beside`: modules the script imports, copied next to it (pythonfmu imports the
+    script to read its interface)."""
     try:
         from pythonfmu import FmuBuilder
     except ImportError:
@@ -167,14 +195,15 @@ def _package(script: Path, cls: str, out, project_files, units: dict, serialize=
             shutil.copy2(extra, src / Path(extra).name)
         raw = FmuBuilder.build_FMU(src / script.name, dest=tmp / f"{cls}.fmu", project_files=project_files,
                                    needsExecutionTool=True, **flags)
-        _rewrite(Path(raw), out, tmp, cls, units, serialize, ranges or {})
+        _rewrite(Path(raw), out, tmp, cls, units, serialize, ranges or {}, nominals or {})
     return out
 
 
-def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize, ranges) -> None:
+def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize, ranges, nominals) -> None:
     with zipfile.ZipFile(raw) as zin:
         entries = {name: zin.read(name) for name in zin.namelist() if not name.startswith("binaries/")}
-    entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"], units, serialize, ranges)
+    entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"], units, serialize, ranges,
+                                                       nominals)
     entries["resources/slaveclass.txt"] = (cls + "\n").encode()
     # a C host's Python when DFA_FMU_PYTHON names none: this one (fmi2_loader.c, fmi2_python.c)
     entries["resources/python.txt"] = (sys.executable + "\n").encode()
@@ -256,26 +285,52 @@ def compile_binary(tmp: Path, name: str) -> tuple[bytes, bytes]:
     return loader.read_bytes(), implementation.read_bytes()
 
 
-def _fix_description(xml: bytes, units_of: dict, serialize: bool, ranges: dict | None = None) -> bytes:
+# the attributes of a <Real> in the FMI 2.0 schema's order (written in that order)
+_REAL_ATTRS = ("declaredType", "quantity", "unit", "displayUnit", "relativeQuantity", "min", "max", "nominal",
+               "unbounded", "start", "derivative", "reinit")
+
+
+def _fix_description(xml: bytes, units_of: dict, serialize: bool, ranges: dict | None = None,
+                     nominals: dict | None = None) -> bytes:
+    """The model description with units, display units, ranges, nominal values and the
+    ModelStructure (see the module's docstring). units_of: variable name -> unit as the
+    project writes it (fmu.units.modelica translates; none: dimensionless, "1")."""
+    from . import units as U
     root = ET.fromstring(xml)
-    units: dict[str, None] = {}
+    units: dict[str, list] = {}          # Modelica unit -> its display units, in order of use
     outputs: list[int] = []
+    params: list[int] = []
     for i, sv in enumerate(root.find("ModelVariables"), start=1):
-        real = sv.find("Real")
-        unit = units_of.get(sv.get("name"), "")
-        if real is not None and unit:
-            real.set("unit", unit)
-            units[unit] = None
-        if real is not None and sv.get("name") in (ranges or {}):
-            lo, hi = ranges[sv.get("name")]
-            real.set("min", f"{lo:.16g}")
-            real.set("max", f"{hi:.16g}")
+        name, typed = sv.get("name"), sv[0]
+        attrs = dict(typed.attrib)
+        if typed.tag == "Real":
+            unit = U.modelica(units_of.get(name, ""))
+            attrs["unit"] = unit
+            displays = units.setdefault(unit, [])
+            if name in U.DISPLAY:
+                U.display_factor(unit, U.DISPLAY[name])          # the same quantity, or ValueError
+                attrs["displayUnit"] = U.DISPLAY[name]
+                if U.DISPLAY[name] not in displays:
+                    displays.append(U.DISPLAY[name])
+            if name in (nominals or {}):
+                attrs["nominal"] = f"{nominals[name]:.16g}"
+        if typed.tag in ("Real", "Integer") and name in (ranges or {}):
+            lo, hi = ranges[name]
+            fmt = (lambda v: str(int(v))) if typed.tag == "Integer" else (lambda v: f"{v:.16g}")
+            if lo is not None:
+                attrs["min"] = fmt(lo)
+            if hi is not None:
+                attrs["max"] = fmt(hi)
+        typed.attrib.clear()
+        typed.attrib.update({k: attrs[k] for k in (*_REAL_ATTRS, *attrs) if k in attrs})
         if sv.get("causality") == "output":
             outputs.append(i)
+        elif sv.get("causality") == "parameter":
+            params.append(i)
     # UnitDefinitions must precede ModelVariables (FMI 2.0 schema order)
     ud = ET.Element("UnitDefinitions")
-    for unit in units:
-        ET.SubElement(ud, "Unit", name=unit)
+    for unit, displays in units.items():
+        ud.append(U.unit_definition(unit, displays))
     children = list(root)
     pos = next(k for k, c in enumerate(children) if c.tag in ("TypeDefinitions", "LogCategories", "DefaultExperiment",
                                                              "VendorAnnotations", "ModelVariables"))
@@ -288,9 +343,12 @@ def _fix_description(xml: bytes, units_of: dict, serialize: bool, ranges: dict |
     outs = ET.SubElement(ms, "Outputs")
     init = ET.Element("InitialUnknowns")
     for i in outputs:
-        # in co-simulation the outputs depend on the state only, not directly on the inputs
+        # in co-simulation the outputs depend on the state only, not directly on the inputs;
+        # after initialization on the parameters only (every slave computes its initial
+        # outputs without its inputs): without `dependencies` a master must assume all
+        # inputs too, and sees an algebraic loop through the system's feedback connections
         ET.SubElement(outs, "Unknown", index=str(i), dependencies="")
-        ET.SubElement(init, "Unknown", index=str(i))
+        ET.SubElement(init, "Unknown", index=str(i), dependencies=" ".join(map(str, params)))
     ms.append(init)
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)

@@ -82,9 +82,10 @@ OUTPUT_INFO = {
 }
 # the Real variables the binary reads and writes directly (see fmi2_python.c)
 FAST = ("voltage", "force", *OUTPUTS)
-EXTRA = {  # FMU-only parameters: not keys of the parameter file
-    "x0": ("m", "initial stroke", 0.0),
-    "v_nominal": ("V", "nominal voltage amplitude: sets the charge scale of the error control", 6000.0),
+EXTRA = {  # FMU-only parameters, not keys of the parameter file: (range and unit, start)
+    "x0": (P.Spec("fmu", "m", "initial stroke", 0.0, lo_incl=True), 0.0),
+    "v_nominal": (P.Spec("fmu", "V", "nominal voltage amplitude: sets the charge scale of the error control", 0.0),
+                  6000.0),
 }
 INPUT_INFO = {
     "voltage": ("V", "voltage across the electrodes"),
@@ -93,12 +94,18 @@ INPUT_INFO = {
 # [min, max] of the inputs (dfa_model.limits): build.py writes them into the model
 # description, the binary refuses a value outside them in fmi2SetReal
 RANGES = {kind: (-bound, bound) for kind, (bound, _) in limits.SIGNALS.items()}
+# [min, max] of the parameters (None: unbounded), from the checks their setters make
+# (dfa_model.parameters.SPEC, EXTRA): build.py writes them into the model description.
+# FMI's min and max are inclusive: a bound the check excludes (l > 0) is written as the
+# min all the same, and the setter refuses the bound itself.
+PARAM_RANGES = {key: (spec.lo, spec.hi) for key, spec in (*P.SPEC.items(), *((k, e[0]) for k, e in EXTRA.items()))
+                if spec.kind is not str and (spec.lo is not None or spec.hi is not None)}
 # every parameter variable, in registration order (the FMU state holds them by name)
 PARAM_KEYS = ("layout", *P.SPEC, "land_on_communication_points", *EXTRA)
 STATE_KEYS = ("params", "inputs", "experiment", "stepper")
 # the unit of every Real variable (build.py writes them into modelDescription.xml)
 UNITS = {**{k: u for k, (u, _) in INPUT_INFO.items()}, **{k: u for k, (u, _) in OUTPUT_INFO.items()},
-         **{k: s.unit for k, s in P.SPEC.items() if s.unit}, **{k: e[0] for k, e in EXTRA.items()}}
+         **{k: s.unit for k, s in P.SPEC.items() if s.unit}, **{k: e[0].unit for k, e in EXTRA.items()}}
 
 
 class DFAActuator(Fmi2Slave):
@@ -155,10 +162,10 @@ class DFAActuator(Fmi2Slave):
                         "simulate with the input sampled at every point; 10-50x slower at 1 ms steps)"))
         vr = {v.name: v.value_reference for v in self.vars.values()}
         self._c_real_vrs = tuple(vr[name] for name in FAST)
-        for key, (unit, text, start) in EXTRA.items():
+        for key, (spec, start) in EXTRA.items():
             setattr(self, key, start)
             self.register_variable(Real(key, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
-                                        initial=Fmi2Initial.exact, description=f"{text} [{unit}]",
+                                        initial=Fmi2Initial.exact, description=f"{spec.description} [{spec.unit}]",
                                         setter=self._param_setter(key)))
         self._start_values = self._param_values()
 
@@ -347,9 +354,7 @@ def _check_param(key, value):
         if not isinstance(value, bool):
             raise P.ParameterError(f"{key}: got {value!r}, expected true or false")
     elif key in EXTRA:
-        if not _finite(value) or value < 0 or (key == "v_nominal" and value <= 0):
-            raise P.ParameterError(f"{key}: got {value!r}, expected a finite number "
-                                   f"{'> 0' if key == 'v_nominal' else '>= 0'} ({EXTRA[key][0]})")
+        P.check_value(key, value, EXTRA[key][0])
     elif key in ("a", "volume") and _finite(value) and value == 0.0:
         pass                          # the other layout's key: 0 = unused
     else:

@@ -29,15 +29,19 @@ MODES = ("reset_dc", "inversion", "dc")
 PROTOCOL_MODE = "protocol"
 PROTOCOL_FILE = "drive_protocol.json"    # the protocol's breakpoints (fmu/ssp.py writes it)
 START_FILE = "start_values.json"         # start values chosen at build time (fmu/build.py writes it)
-PARAMS = {  # name: (unit, description, start, lower bound (exclusive unless 0))
-    "amplitude": ("V", "voltage amplitude", 6000.0),
-    "frequency": ("Hz", "polarity inversion frequency", 30.0),
-    "reset_time": ("s", "duration of the bipolar charge reset (mode reset_dc)", 3.0),
-    "slew_rate": ("V/s", "amplifier slew rate limit", 5.0e6),
-    "current_limit": ("A", "amplifier output current limit", 2.0e-3),
+PARAMS = {  # name: (unit, description, start, 0 allowed); each is finite and > 0 (or 0 where allowed)
+    "amplitude": ("V", "voltage amplitude", 6000.0, False),
+    "frequency": ("Hz", "polarity inversion frequency", 30.0, False),
+    "reset_time": ("s", "duration of the bipolar charge reset (mode reset_dc)", 3.0, True),
+    "slew_rate": ("V/s", "amplifier slew rate limit", 5.0e6, False),
+    "current_limit": ("A", "amplifier output current limit", 2.0e-3, False),
 }
 # the unit of every Real variable (build.py writes them into modelDescription.xml)
 UNITS = {"load_capacitance": "F", "voltage": "V", "supply_current": "A", **{k: p[0] for k, p in PARAMS.items()}}
+# [min, max] (None: unbounded) of the parameters and the input, from the setters' checks
+# (build.py writes them into modelDescription.xml; FMI's min is inclusive, a setter
+# refuses 0 where it must be > 0)
+RANGES = {"load_capacitance": (0.0, None), **{k: (0.0, None) for k in PARAMS}}
 
 
 def reference(mode, t, amplitude, frequency, reset_time):
@@ -119,7 +123,7 @@ class DriveElectronics(Fmi2Slave):
         self.register_variable(String("mode", causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                                       initial=Fmi2Initial.exact, description="waveform: " + modes,
                                       setter=self._set_mode))
-        for name, (unit, text, start) in PARAMS.items():
+        for name, (unit, text, start, _) in PARAMS.items():
             setattr(self, name, start)
             self.register_variable(Real(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                                         initial=Fmi2Initial.exact, description=f"{text} [{unit}]",
@@ -134,8 +138,9 @@ class DriveElectronics(Fmi2Slave):
 
     def _param_setter(self, name):
         def put(value):
-            if not (math.isfinite(value) and value > 0 or (name == "reset_time" and value == 0)):
-                raise ValueError(f"{name}: got {value!r}, expected a finite number > 0 ({PARAMS[name][0]})")
+            unit, _, _, zero = PARAMS[name]
+            if not (math.isfinite(value) and value > 0 or (zero and value == 0)):
+                raise ValueError(f"{name}: got {value!r}, expected a finite number {'>=' if zero else '>'} 0 ({unit})")
             setattr(self, name, value)
         return put
 

@@ -22,13 +22,17 @@ from pythonfmu.variables import Real
 
 G = 9.81
 START_FILE = "start_values.json"         # start values chosen at build time (fmu/build.py writes it)
-PARAMS = {
-    "mass": ("kg", "load mass", 0.51),
-    "stiffness": ("N/m", "spring stiffness between actuator and mass", 2000.0),
-    "damping": ("N s/m", "damping of the mass motion", 5.0),
+PARAMS = {  # name: (unit, description, start, 0 allowed); each is finite and > 0 (or 0 where allowed)
+    "mass": ("kg", "load mass", 0.51, False),
+    "stiffness": ("N/m", "spring stiffness between actuator and mass", 2000.0, False),
+    "damping": ("N s/m", "damping of the mass motion", 5.0, True),
 }
 # the unit of every Real variable (build.py writes them into modelDescription.xml)
 UNITS = {"stroke": "m", "force": "N", "mass_position": "m", **{k: p[0] for k, p in PARAMS.items()}}
+# [min, max] (None: unbounded) of the parameters, from the setters' checks (build.py
+# writes them into modelDescription.xml; FMI's min is inclusive, a setter refuses 0
+# where it must be > 0). The input stroke has no range of its own.
+RANGES = {k: (0.0, None) for k in PARAMS}
 
 
 class MassSpringLoad(Fmi2Slave):
@@ -48,7 +52,7 @@ class MassSpringLoad(Fmi2Slave):
         self.register_variable(Real("mass_position", causality=Fmi2Causality.output,
                                     variability=Fmi2Variability.continuous, initial=Fmi2Initial.calculated,
                                     description="mass position from rest, upward [m]"))
-        for name, (unit, text, start) in PARAMS.items():
+        for name, (unit, text, start, _) in PARAMS.items():
             setattr(self, name, start)
             self.register_variable(Real(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                                         initial=Fmi2Initial.exact, description=f"{text} [{unit}]",
@@ -65,8 +69,9 @@ class MassSpringLoad(Fmi2Slave):
 
     def _param_setter(self, name):
         def put(value):
-            if not (math.isfinite(value) and (value > 0 or (name == "damping" and value == 0))):
-                raise ValueError(f"{name}: got {value!r}, expected a finite number > 0 ({PARAMS[name][0]})")
+            unit, _, _, zero = PARAMS[name]
+            if not (math.isfinite(value) and (value > 0 or (zero and value == 0))):
+                raise ValueError(f"{name}: got {value!r}, expected a finite number {'>=' if zero else '>'} 0 ({unit})")
             setattr(self, name, value)
         return put
 

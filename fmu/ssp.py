@@ -9,7 +9,9 @@ fmu/cosim.py:
     actuator.stroke       -> load.stroke
     load.force            -> actuator.force
 
-Any SSP master runs it: fmpy.ssp.simulation.simulate_ssp, OMSimulator. The FMUs carry
+Any SSP master runs it: fmpy.ssp.simulation.simulate_ssp, OMSimulator (its Python SSP
+class, and oms_importFile, the path of its command line: the SSD's vendor annotation
+names OMSimulator's fixed-step master at 1 ms, which that importer needs). The FMUs carry
 their start values (the actuator's parameters from the preset or file it was built
 from; the drive's reset_dc mode, 30 Hz, 3 s reset; the 0.51 kg load on 2 kN/m), and the
 SSD's DefaultExperiment gives the standard run: 23 s at 1 ms.
@@ -34,6 +36,13 @@ from dfa_model.waveforms import Protocol, Sampled
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"
 SSC = "http://ssp-standard.org/SSP1/SystemStructureCommon"
+# OMSimulator's vendor annotation (type "org.openmodelica"): its SSD importer
+# (oms_importFile: the OMSimulator command line, OMEdit, the 2.x Python API) makes a
+# system only from the master named in <oms:SimulationInformation> and fails without
+# one ("[NewSystem] internal error"; OMSimulator issue 1318). The importer matches the
+# prefixed names literally: the prefixes must be ssd, ssc and oms.
+OMS = "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"
+OMS_ANNOTATION = "org.openmodelica"
 STEP = 1e-3          # the communication step the system is meant for (s)
 STOP = 23.0          # the standard protocol: 3 s reset, 20 s DC hold
 
@@ -129,8 +138,10 @@ def load_setup(drive: Protocol) -> dict | None:
 
 def system_description(stop: float = STOP) -> bytes:
     """SystemStructure.ssd (SSP 1.0); its DefaultExperiment runs 0 to `stop` s."""
+    from .units import BASE, base_unit
     ET.register_namespace("ssd", SSD)
     ET.register_namespace("ssc", SSC)
+    ET.register_namespace("oms", OMS)
     root = ET.Element(f"{{{SSD}}}SystemStructureDescription", version="1.0", name="DFASystem")
     system = ET.SubElement(root, f"{{{SSD}}}System", name="DFASystem",
                            description="Dielectric fluid actuator driven by a high-voltage amplifier, lifting a "
@@ -149,15 +160,27 @@ def system_description(stop: float = STOP) -> bytes:
     for a, ca, b, cb in CONNECTIONS:
         ET.SubElement(connections, f"{{{SSD}}}Connection", startElement=a, startConnector=ca, endElement=b,
                       endConnector=cb)
-    # SI base-unit exponents of the units used
-    base = {"V": dict(kg=1, m=2, s=-3, A=-1), "N": dict(kg=1, m=1, s=-2), "m": dict(m=1), "rad": dict(rad=1),
-            "A": dict(A=1), "F": dict(kg=-1, m=-2, s=4, A=2)}
+    # OMSimulator's master for the system: fixed steps of STEP (the System's last child)
+    annotation = ET.SubElement(ET.SubElement(system, f"{{{SSD}}}Annotations"), f"{{{SSC}}}Annotation",
+                               type=OMS_ANNOTATION)
+    info = ET.SubElement(ET.SubElement(annotation, f"{{{OMS}}}Annotations"), f"{{{OMS}}}SimulationInformation")
+    ET.SubElement(info, f"{{{OMS}}}FixedStepMaster", description="oms-ma", stepSize=f"{STEP:g}",
+                  relativeTolerance="0.0001")
+    # SI base-unit exponents of the units used (fmu/units.py, as in the FMUs)
     us = ET.SubElement(root, f"{{{SSD}}}Units")
     for unit in units:
+        factor, dims = base_unit(unit)
         u = ET.SubElement(us, f"{{{SSC}}}Unit", name=unit)
-        ET.SubElement(u, f"{{{SSC}}}BaseUnit", {k: str(v) for k, v in base[unit].items()})
+        ET.SubElement(u, f"{{{SSC}}}BaseUnit", {k: str(dims[k]) for k in BASE if k in dims}
+                      | ({} if factor == 1.0 else {"factor": f"{factor:.16g}"}))
     text = f"{stop:g}"
-    ET.SubElement(root, f"{{{SSD}}}DefaultExperiment", startTime="0.0",
-                  stopTime=text if float(text) == stop else repr(float(stop)))
+    experiment = ET.SubElement(root, f"{{{SSD}}}DefaultExperiment", startTime="0.0",
+                               stopTime=text if float(text) == stop else repr(float(stop)))
+    # OMSimulator's result settings, its own defaults: without them its importer warns of
+    # "wrong/deprecated content"
+    annotation = ET.SubElement(ET.SubElement(experiment, f"{{{SSD}}}Annotations"), f"{{{SSC}}}Annotation",
+                               type=OMS_ANNOTATION)
+    ET.SubElement(ET.SubElement(annotation, f"{{{OMS}}}Annotations"), f"{{{OMS}}}SimulationInformation",
+                  resultFile="DFASystem_res.mat", loggingInterval="0", bufferSize="10")
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)

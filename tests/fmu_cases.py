@@ -88,15 +88,72 @@ def bipolar(n, v=6000.0, period_steps=34):
     return np.where((np.arange(n) // (period_steps // 2)) % 2 == 0, v, -v)
 
 
+# SI base-unit exponents of the units the FMUs use, by hand (tests/test_fmu_units.py)
+from test_fmu_units import SI  # noqa: E402
+
+
+def check_description(fmu_path, ranges: dict):
+    """The model description's units, display units, ranges and nominal values: every
+    Real has a unit defined in UnitDefinitions with the SI exponents of SI (written out
+    by hand there); a display unit is one of its unit's, its factor that of the prefix;
+    `ranges` (name -> (min, max), None for no bound) are the min/max written; every start
+    lies within [min, max]; nominal values are > 0; the initial outputs depend on the
+    parameters only. Returns the variables' typed elements by name."""
+    import math
+    from xml.etree import ElementTree as ET
+    with zipfile.ZipFile(fmu_path) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    units = {u.get("name"): u for u in root.find("UnitDefinitions")}
+    prefix = {"m": 1e-3, "u": 1e-6, "n": 1e-9, "k": 1e3, "M": 1e6}
+    typed, by_index = {}, {}
+    for i, sv in enumerate(root.find("ModelVariables"), start=1):
+        name, t = sv.get("name"), sv[0]
+        typed[name], by_index[i] = t, sv
+        if t.tag == "Real":
+            u = units[t.get("unit")]                 # KeyError: a unit not defined
+            assert {k: int(v) for k, v in u.find("BaseUnit").attrib.items()} == SI[u.get("name")], name
+            if t.get("displayUnit"):
+                d = {x.get("name"): float(x.get("factor", "1")) for x in u.findall("DisplayUnit")}[t.get("displayUnit")]
+                name_d = t.get("displayUnit")
+                if name_d == "deg":
+                    assert math.isclose(d, 180 / math.pi, rel_tol=1e-14)
+                elif name_d[1:] == u.get("name"):    # a prefixed unit: factor 1 / prefix
+                    assert math.isclose(d, 1 / prefix[name_d[0]], rel_tol=1e-15), name
+            if t.get("nominal") is not None:
+                assert float(t.get("nominal")) > 0, name
+        if name in ranges:
+            lo, hi = ranges[name]
+            assert (t.get("min") is None) == (lo is None) and (t.get("max") is None) == (hi is None), name
+            assert lo is None or float(t.get("min")) == lo
+            assert hi is None or float(t.get("max")) == hi
+        else:
+            assert t.get("min") is None and t.get("max") is None, name
+        if t.get("start") is not None and t.tag in ("Real", "Integer"):
+            assert float(t.get("min", "-inf")) <= float(t.get("start")) <= float(t.get("max", "inf")), name
+    for u in root.find("ModelStructure/InitialUnknowns"):
+        deps = [by_index[int(k)] for k in u.get("dependencies").split()]
+        assert all(sv.get("causality") == "parameter" for sv in deps)
+    return typed
+
+
 def test_validates_and_documents(fmu_path, md):
     assert fmpy.validation.validate_fmu(str(fmu_path)) == []
+    from fmu.dfa_actuator import PARAM_RANGES, RANGES
+    typed = check_description(fmu_path, {**RANGES, **PARAM_RANGES})
+    assert typed["stroke"].get("displayUnit") == "mm" and typed["voltage"].get("displayUnit") == "kV"
+    assert typed["rho_l"].get("unit") == "Ohm.m" and typed["b"].get("unit") == "N.s/m"
+    assert typed["eps_r_f"].get("unit") == "1"
+    assert typed["l"].get("min") == "0" and typed["l"].get("max") == "10"            # SPEC: 0 < l <= 10
+    assert typed["N"].get("min") == "3" and typed["N"].get("max") == "100000"
+    assert float(typed["stroke"].get("nominal")) == pytest.approx(4.565e-3, rel=1e-3)    # x_e of Table 1
+    assert float(typed["voltage"].get("nominal")) == 6000.0
     names = {v.name: v for v in md.modelVariables}
     for out in ("stroke", "velocity", "zipped_length", "zipping_angle", "electrostatic_force", "current",
                 "capacitance", "stored_energy"):
         assert names[out].causality == "output" and names[out].description
     assert names["voltage"].causality == "input" and names["voltage"].unit == "V"
     assert names["rho_l"].causality == "parameter" and names["rho_l"].variability == "fixed"
-    assert float(names["rho_l"].start) == preset("vshape-table1").rho_l and names["rho_l"].unit == "ohm m"
+    assert float(names["rho_l"].start) == preset("vshape-table1").rho_l and names["rho_l"].unit == "Ohm.m"
     assert names["N"].type == "Integer" and names["scheme"].type == "String"
     assert float(md.defaultExperiment.stopTime) == 23.0
     with zipfile.ZipFile(fmu_path) as z:
@@ -345,8 +402,10 @@ def test_cosimulation_with_drive_and_load(fmu_path, tmp_path):
     from fmu.cosim import cosimulate
     drive = build_companion_fmu("drive", tmp_path / "drive.fmu")
     load = build_companion_fmu("load", tmp_path / "load.fmu")
-    for f in (drive, load):
+    from fmu import drive_electronics, mass_spring_load
+    for f, module in ((drive, drive_electronics), (load, mass_spring_load)):
         assert fmpy.validation.validate_fmu(str(f)) == []
+        check_description(f, module.RANGES)
     runs = {mode: cosimulate(fmu_path, drive, load, 4.0, drive_start={"mode": mode, "reset_time": 1.0})
             for mode in ("reset_dc", "inversion")}
     for r in runs.values():
