@@ -40,6 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .dielectrics import ResistivityLaw
+from .model import DFAModel
 from .parameters import Parameters
 from .solver import simulate
 from .waveforms import DC, Bipolar, Protocol, Stage, Unipolar
@@ -78,6 +80,45 @@ def scaled_resistivity(p: Parameters, factor: float) -> Parameters:
     return p.replace(rho_l=p.rho_l * factor)
 
 
+class ExponentialResistivity(ResistivityLaw):
+    """A truth law outside the catalog's forms: rho_l = rho_min + (rho_0 - rho_min)
+    exp(-|E| / E_0) (dissociation rising with the field, down to a floor)."""
+
+    def __init__(self, rho_0: float, E_0: float, rho_min: float = 0.0):
+        self.rho_0, self.E_0, self.rho_min = float(rho_0), float(E_0), float(rho_min)
+
+    def rho(self, E):
+        return self.rho_min + (self.rho_0 - self.rho_min) * np.exp(-np.abs(np.asarray(E, float)) / self.E_0)
+
+    def __repr__(self):
+        return f"ExponentialResistivity(rho_0={self.rho_0:g}, E_0={self.E_0:g}, rho_min={self.rho_min:g})"
+
+
+class PowerResistivity(ResistivityLaw):
+    """A truth law outside the catalog's forms: rho_l = rho_0 (|E| / E_ref)^-n above
+    E_on, rho_0 (E_on / E_ref)^-n below it (a power law from an onset field)."""
+
+    def __init__(self, rho_0: float, E_ref: float, n: float, E_on: float):
+        self.rho_0, self.E_ref, self.n, self.E_on = float(rho_0), float(E_ref), float(n), float(E_on)
+
+    def rho(self, E):
+        E = np.maximum(np.abs(np.asarray(E, float)), self.E_on)
+        return self.rho_0 * (E / self.E_ref) ** -self.n
+
+    def __repr__(self):
+        return f"PowerResistivity(rho_0={self.rho_0:g}, E_ref={self.E_ref:g}, n={self.n:g}, E_on={self.E_on:g})"
+
+
+class _ScaledLaw(ResistivityLaw):
+    """law x factor at every field (a repetition's resistivity spread)."""
+
+    def __init__(self, law, factor):
+        self.law, self.factor = law, float(factor)
+
+    def rho(self, E):
+        return self.factor * np.asarray(self.law.rho(E), float)
+
+
 def recording_name(V: float, F: float, rep: int) -> str:
     return f"V{V / 1e3:g}kV_F{F:g}N_r{rep}"
 
@@ -85,8 +126,10 @@ def recording_name(V: float, F: float, rep: int) -> str:
 def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = None, conditions=((6000.0, 5.0),),
                      repetitions: int = 3, reset: float = 3.0, hold: float = 20.0, reset_frequency: float = 30.0,
                      measurement: Measurement | None = None, seed: int = 0, manifest=None,
-                     pretrigger: float = 0.1, drive: str = "reset_hold") -> dict:
-    """Write a dataset folder (module docstring); returns what was drawn."""
+                     pretrigger: float = 0.1, drive: str = "reset_hold", law: ResistivityLaw | None = None) -> dict:
+    """Write a dataset folder (module docstring); returns what was drawn. `law`: the
+    truth's resistivity law when it is none of the parameter file's (e.g.
+    ExponentialResistivity; truth's own law keys are then ignored)."""
     meas = measurement or Measurement()
     nominal = nominal or truth
     if not isinstance(repetitions, int) or repetitions < 1:
@@ -123,8 +166,9 @@ def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = Non
             factor = float(np.exp(rng.normal(0.0, meas.rho_spread)))
             offset = float(rng.normal(0.0, meas.offset))
             p = scaled_resistivity(truth, factor)
+            model = p if law is None else DFAModel(truth, law=_ScaledLaw(law, factor))
             # the rig measures the physics, not our integrator's error at its tolerance
-            res = simulate(p, protocol, load=F, t_eval=t, warn=False, rtol=min(p.rtol, TRUTH_RTOL))
+            res = simulate(model, protocol, load=F, t_eval=t, warn=False, rtol=min(p.rtol, TRUTH_RTOL))
             x = res.trace(t)
             x_meas = x + offset + rng.normal(0.0, meas.noise, t.size)
             if meas.quantum > 0:
@@ -141,7 +185,7 @@ def generate_dataset(folder, truth: Parameters, nominal: Parameters | None = Non
             drawn.append({"recording": name, "voltage": V, "force": F, "repetition": rep, "pretrigger": pre,
                           "rho_factor": factor, "offset": offset, "reset_frequency": f_drive,
                           "voltage_gain": gain})
-    out = {"truth": truth.to_dict(), "nominal": nominal.to_dict(), "measurement": asdict(meas), "seed": seed,
+    out = {"truth": truth.to_dict(), "truth_law": repr(law) if law is not None else None, "nominal": nominal.to_dict(), "measurement": asdict(meas), "seed": seed,
            "recordings": drawn}
     if manifest is not None:
         Path(manifest).write_text(json.dumps(out, indent=1))

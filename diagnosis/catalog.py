@@ -114,10 +114,14 @@ def _spline_law(p: Parameters, ctx: Context) -> Parameters:
     return p.replace(law="spline", E_lo=E_lo, E_hi=E_hi, d_rho1=0.0, d_rho2=0.0, d_rho3=0.0)
 
 
-def _slope_start(p: Parameters, ctx: Context, s_rho: float) -> dict:
-    """The linear law's keys for relative slope s_rho at the reference field, same level."""
+def _slope_start(p: Parameters, ctx: Context, s_rho: float, f_rho: float | None = None) -> dict:
+    """The linear law's keys for relative slope s_rho at the reference field, same level
+    (and floor f_rho x that level, if given)."""
     q = Coordinate("slope", ctx.E_ref).put(p, s_rho)
-    return {"m_rho": q.m_rho, "q_rho": q.q_rho}
+    out = {"m_rho": q.m_rho, "q_rho": q.q_rho}
+    if f_rho is not None:
+        out["rho_min"] = Coordinate("floor", ctx.E_ref).put(q, f_rho).rho_min
+    return out
 
 
 def _no_change(p: Parameters, ctx: Context) -> Parameters:
@@ -138,13 +142,19 @@ PHYSICS = [
     Entry("field_dependent_resistivity", _linear_law,
           # s_rho = m_rho E_ref / rho_l(E_ref): the law's relative slope there (-1: rho_l
           # halves when the field grows by half; bounded so that q_rho stays positive)
+          # f_rho: the floor rho_min as a share of the unclipped law at E_ref, free (a law
+          # reaching its floor inside the probed fields: with the floor fixed at 1 % of
+          # the level the fit missed it by 2x at 1.2 E_ref)
           lambda p, ctx: [FreeParameter("s_rho", False, -100.0, 0.95, scale=0.3,
-                                        coord=Coordinate("slope", ctx.E_ref))],
-          "the liquid's resistivity depends on its field: Eq. (21), rho_l = m_rho |E_l| + q_rho", variant="Eq. 21",
-          shows=("m_rho", "q_rho"),
+                                        coord=Coordinate("slope", ctx.E_ref)),
+                          FreeParameter("f_rho", True, 1e-3, 5.0, coord=Coordinate("floor", ctx.E_ref))],
+          "the liquid's resistivity depends on its field: Eq. (21), rho_l = m_rho |E_l| + q_rho, floor rho_min",
+          variant="Eq. 21", shows=("m_rho", "q_rho", "rho_min"),
           # the cost is not convex in the slope: a little slope fits worse than none, a
-          # steep one far better (truth s_rho = -4.4: the search from 0 stayed at 0)
-          starts=lambda p, ctx: [{}, _slope_start(p, ctx, -3.0)]),
+          # steep one far better (truth s_rho = -4.4: the search from 0 stayed at 0); a
+          # floor out of reach has no gradient, so the steep start also starts from a
+          # floor within the probed fields
+          starts=lambda p, ctx: [{}, _slope_start(p, ctx, -3.0, 0.5)]),
     Entry("field_dependent_resistivity", _spline_law,
           lambda p, ctx: [FreeParameter(k, False, 0.0, 20.0, scale=0.3, coord=Coordinate("drop", ctx.E_ref, k))
                           for k in ("d_rho1", "d_rho2", "d_rho3")],

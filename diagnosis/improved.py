@@ -36,9 +36,9 @@ def _nom(v) -> str:
     return "not in the nominal model" if v is None else f"nominal {_g(v)}"
 
 
-# keys a law carries along with the fitted level without fitting them (catalog._linear_law)
-CARRIED = {"rho_min": "Eq. (21)'s floor: set at 1 % of the level when the law was added, scaled with the "
-                      "fitted level; not fitted itself"}
+# keys a law carries along with the fitted level without fitting them (catalog): none since
+# Eq. (21)'s floor is fitted
+CARRIED: dict = {}
 
 
 def _unfitted(k: str, final) -> str | None:
@@ -114,6 +114,9 @@ def improved_toml(D, dataset_name: str | None = None) -> str:
     if r and r.get("resolution_only"):
         head.append(f"N raised from {r['N']} to {r['N_fine']}: {', '.join(r['dropped'])} only took up the model's "
                     f"discretization error")
+    elif r and r.get("refined"):
+        head.append(f"N raised from {r['N']} to {r['N_fine']}: the improved model fits better there "
+                    f"({r['measure']} RMSE {r['kept_rmse'] * 1e6:.3g} -> {r['kept_fine_rmse'] * 1e6:.3g} um)")
     head.append("values the diagnosis moved (value +- standard error, nominal value replaced):")
     for k, f in fk.items():
         why = _unfitted(k, D.final.params)

@@ -30,7 +30,8 @@ from dfa_model.synthetic import scaled_resistivity
 class Coordinate:
     """A fit coordinate that is not one model key: `get(p)` reads it, `put(p, v)` returns p
     with it set to v (keeping the spec's other coordinates where they were)."""
-    kind: str            # 'level' (rho_l at E_ref), 'slope' (Eq. 21: d rho/rho per dE/E at E_ref), 'drop' (spline)
+    kind: str            # 'level' (rho_l at E_ref), 'slope' (Eq. 21: d rho/rho per dE/E at E_ref), 'floor'
+    #                      (Eq. 21: rho_min as a share of the unclipped law at E_ref), 'drop' (spline)
     E_ref: float         # reference field (V/m)
     key: str = ""        # the spline drop's model key
 
@@ -39,6 +40,8 @@ class Coordinate:
             return rho_at(p, self.E_ref)
         if self.kind == "slope":
             return p.m_rho * self.E_ref / (p.q_rho + p.m_rho * self.E_ref)
+        if self.kind == "floor":
+            return p.rho_min / (p.q_rho + p.m_rho * self.E_ref)
         return getattr(p, self.key)
 
     def put(self, p: Parameters, v: float) -> Parameters:
@@ -47,6 +50,8 @@ class Coordinate:
         if self.kind == "slope":
             r = p.q_rho + p.m_rho * self.E_ref      # the unclipped law at E_ref stays
             return p.replace(m_rho=r * v / self.E_ref, q_rho=r * (1.0 - v))
+        if self.kind == "floor":
+            return p.replace(rho_min=v * (p.q_rho + p.m_rho * self.E_ref))
         level = rho_at(p, self.E_ref)
         q = p.replace(**{self.key: v})
         return scaled_resistivity(q, level / rho_at(q, self.E_ref))

@@ -195,6 +195,9 @@ def conclusion(D) -> str:
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "
                      f"{r['measure']} error by {r['gain']:.0%} at N = {r['N']}, by {r['gain_fine']:.0%} at "
                      f"N = {r['N_fine']}): the data ask for a finer N, not this entry")
+    elif r and r.get("refined"):
+        parts.append(f"the final model is at N = {r['N_fine']} (N = {r['N']} left its own discretization error: "
+                     f"{r['kept_rmse'] * 1e6:.3g} um {r['measure']} RMSE against {r['kept_fine_rmse'] * 1e6:.3g} um)")
     if corr:
         parts.append("nominal value(s) corrected: " + ", ".join(corr))
     if D.unverified:

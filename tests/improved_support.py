@@ -47,8 +47,8 @@ def check_improved(D, report: dict, out: Path, fmu: bool = False) -> None:
         entry = next(ln for ln in head if ln.startswith(f"#   {k} = "))
         if not parameters.applies(nd, k):        # a law's key the nominal model has no use for
             assert "not in the nominal model" in entry, entry
-    if D.final.params.law == "linear":          # Eq. (21)'s floor is carried with the level, not fitted
-        assert "not fitted" in next(ln for ln in head if ln.startswith("#   rho_min = "))
+    if D.final.params.law == "linear":          # Eq. (21)'s floor is fitted: a standard error of its own
+        assert "+-" in next(ln for ln in head if ln.startswith("#   rho_min = "))
     for e in D.kept:                                           # the kept entries' errors in the header
         if e.kind == "physics":
             for key, v in report["missing_physics"][[m["name"] for m in report["missing_physics"]].index(e.name)][
