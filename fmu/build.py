@@ -38,6 +38,7 @@ from dfa_model.fileio import file_mode, write_atomic
 
 HERE = Path(__file__).resolve().parent
 SLAVE = HERE / "dfa_actuator.py"
+CORE = HERE / "actuator_core.py"      # the slaves' one implementation (both FMI versions)
 MODEL_IDENTIFIER = "DFAActuator"
 
 
@@ -66,11 +67,12 @@ def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.Pa
         (src / "RUNTIME.txt").write_text("# what the FMU needs in the Python that runs it (pip install ...)\n"
                                          + "\n".join(runtime_requirements()) + "\n")
         variant = script.resolve() != SLAVE
+        shutil.copy2(CORE, src / CORE.name)
         if variant:
             shutil.copy2(SLAVE, src / SLAVE.name)
-        from .dfa_actuator import EXTRA, PARAM_RANGES, RANGES, UNITS
+        from .actuator_core import EXTRA, PARAM_RANGES, RANGES, UNITS
         return _package(script, cls, out, list(src.iterdir()), units=UNITS, serialize=True,
-                        beside=[SLAVE] if variant else [], ranges={**RANGES, **PARAM_RANGES},
+                        beside=[CORE, SLAVE] if variant else [CORE], ranges={**RANGES, **PARAM_RANGES},
                         nominals=actuator_nominals(params, EXTRA["v_nominal"][1]), canGetAndSetFMUstate=True)
 
 
