@@ -264,6 +264,8 @@ def cmd_fmu_build(args):
     if args.drive is not None and not args.system:
         raise CLIError("--drive: only with --system (the drive FMU is part of the system; the actuator FMU alone "
                        "takes its voltage as an input)")
+    if args.fmi == 3 and args.system:
+        raise CLIError("--fmi 3: not with --system (the SSP system's three FMUs are FMI 2.0 co-simulation FMUs)")
     if not args.preset and not args.params:
         args.preset = "vshape-table1"
     p = _params(args)
@@ -284,7 +286,9 @@ def cmd_fmu_build(args):
                                           f"fmpy.ssp.simulation.simulate_ssp or OMSimulator")
     else:
         build = build_fmu
-        default, what = "DFAActuator.fmu", f"FMI 2.0 co-simulation; inputs voltage, force; parameters from {src}"
+        kwargs = {"fmi": args.fmi}
+        default, what = "DFAActuator.fmu", (f"FMI {args.fmi}.0 co-simulation; inputs voltage, force; parameters "
+                                            f"from {src}")
     out = args.out or default
     check_writable("--out", out, (default.rpartition(".")[2],))
     try:
@@ -372,7 +376,7 @@ def build_parser(plugins=True):
     pw.add_argument("--quiet", action="store_true", help="no progress bar")
     pw.set_defaults(func=cmd_sweep)
 
-    pf = sub.add_parser("fmu", help="FMI 2.0 co-simulation FMU of the model")
+    pf = sub.add_parser("fmu", help="FMI 2.0 or 3.0 co-simulation FMU of the model")
     fsub = pf.add_subparsers(dest="fmu_command", parser_class=_Parser, required=True)
     pb = fsub.add_parser("build", help="build the FMU (parameter start values from a preset or file)")
     _add_params_flags(pb, "default: vshape-table1")
@@ -381,6 +385,9 @@ def build_parser(plugins=True):
                     help="build the actuator + drive electronics + load co-simulation as an SSP file")
     pb.add_argument("--drive", metavar="DRIVE.toml",
                     help="with --system: the drive FMU plays this protocol file, the load weighs its [load] force")
+    pb.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                    help="FMI version of the FMU: 2 (default, FMI 2.0) or 3 (FMI 3.0 co-simulation; the same model "
+                         "and guarantees)")
     pb.set_defaults(func=cmd_fmu_build)
     if plugins:
         _plugins(sub)

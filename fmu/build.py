@@ -1,7 +1,10 @@
-"""Build the DFA co-simulation FMU: `dfa fmu build [--preset NAME | --params FILE] [--out FILE.fmu]`.
+"""Build the DFA co-simulation FMU: `dfa fmu build [--preset NAME | --params FILE] [--out FILE.fmu]
+[--fmi 2|3]`.
 
-pythonfmu packs the slave (fmu/dfa_actuator.py) and its parameter file; this module then
-fixes what pythonfmu leaves out:
+FMI 2.0 (the default): pythonfmu packs the slave (fmu/dfa_actuator.py) and its parameter
+file. FMI 3.0 (`--fmi 3`): pythonfmu3 packs fmu/dfa_actuator3.py. Both slaves are thin
+adapters of one implementation, fmu/actuator_core.py. This module then fixes what
+pythonfmu(3) leaves out, for either version:
 
 - modelDescription.xml (_fix_description, the one place that writes these): the unit
   of every Real in Modelica syntax ("Ohm.m", "N.s/m"; "1" if dimensionless), each
@@ -19,9 +22,19 @@ fixes what pythonfmu leaves out:
   every call; see the file's header), and which leaves libpython undeclared so that a C
   host dlopening it with RTLD_NOW fails with `undefined symbol: _Py_NoneStruct`. Ours
   loads libpython itself (the loader) and says what is missing when it cannot.
+
+FMI 3.0 differs in names, not in guarantees: Float64/Int32 variables carrying their own
+attributes and value references, the independent variable `time`, a ModelStructure of
+<Output>/<InitialUnknown> elements whose dependencies are value references, the
+CoSimulation flags canGetAndSetFMUState/canSerializeFMUState (and
+canHandleVariableCommunicationStepSize, which pythonfmu3 0.3.4 writes wrong), the binary
+in binaries/x86_64-linux; the binary is fmu/c/fmi3_loader.c and fmu/c/fmi3_python.c
+(which compiles fmi2_python.c for FMI 3.0), replacing pythonfmu3's library, which
+crashes its host after any Python exception (see fmi3_python.c's header).
 """
 from __future__ import annotations
 
+import importlib
 import math
 import os
 import shutil
@@ -38,24 +51,33 @@ from dfa_model.fileio import file_mode, write_atomic
 
 HERE = Path(__file__).resolve().parent
 SLAVE = HERE / "dfa_actuator.py"
+SLAVE3 = HERE / "dfa_actuator3.py"    # the FMI 3.0 slave
+CORE = HERE / "actuator_core.py"      # the slaves' one implementation (both FMI versions)
 MODEL_IDENTIFIER = "DFAActuator"
+FMI_VERSIONS = (2, 3)
 
 
 class BuildError(RuntimeError):
     pass
 
 
-def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAActuator.fmu") -> Path:
-    """Build the actuator FMU for `params` (default: the Table 1 preset); returns its path."""
+def build_fmu(params: P.Parameters | None = None, out: str | os.PathLike = "DFAActuator.fmu", fmi: int = 2) -> Path:
+    """Build the actuator FMU for `params` (default: the Table 1 preset), FMI 2.0 (default)
+    or 3.0 (`fmi=3`) co-simulation; returns its path."""
+    if fmi not in FMI_VERSIONS:
+        raise BuildError(f"--fmi: got {fmi!r}, expected 2 or 3")
+    if fmi == 3:
+        return build_actuator_variant(SLAVE3, "DFAActuator3", out, params, fmi=3)
     return build_actuator_variant(SLAVE, MODEL_IDENTIFIER, out, params)
 
 
 def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.PathLike,
-                           params: P.Parameters | None = None) -> Path:
+                           params: P.Parameters | None = None, fmi: int = 2) -> Path:
     """Build an FMU whose slave class `cls` lives in `script` and may build on the
-    actuator: the FMU's resources also hold dfa_actuator.py (importable as
-    `dfa_actuator`), the parameter file and the search path. build_fmu is the case
-    script = dfa_actuator.py; the tests' fault-injection slave is another."""
+    actuator: the FMU's resources also hold actuator_core.py and dfa_actuator.py
+    (importable as `actuator_core`, `dfa_actuator`), the parameter file and the search
+    path. build_fmu is the case script = dfa_actuator.py (FMI 3.0: dfa_actuator3.py);
+    the tests' fault-injection slave is another."""
     params = P.preset("vshape-table1") if params is None else params
     script = Path(script)
     with tempfile.TemporaryDirectory(prefix="dfa_fmu_") as tmp:
@@ -65,13 +87,15 @@ def build_actuator_variant(script: str | os.PathLike, cls: str, out: str | os.Pa
         bundle_model(src / BUNDLED)
         (src / "RUNTIME.txt").write_text("# what the FMU needs in the Python that runs it (pip install ...)\n"
                                          + "\n".join(runtime_requirements()) + "\n")
-        variant = script.resolve() != SLAVE
+        variant = script.resolve() not in (SLAVE, SLAVE3)
+        shutil.copy2(CORE, src / CORE.name)
         if variant:
             shutil.copy2(SLAVE, src / SLAVE.name)
-        from .dfa_actuator import EXTRA, PARAM_RANGES, RANGES, UNITS
-        return _package(script, cls, out, list(src.iterdir()), units=UNITS, serialize=True,
-                        beside=[SLAVE] if variant else [], ranges={**RANGES, **PARAM_RANGES},
-                        nominals=actuator_nominals(params, EXTRA["v_nominal"][1]), canGetAndSetFMUstate=True)
+        from .actuator_core import EXTRA, PARAM_RANGES, RANGES, UNITS
+        flags = {"canGetAndSetFMUstate": True} if fmi == 2 else {}     # FMI 3.0: set in _fix_description
+        return _package(script, cls, out, list(src.iterdir()), units={**UNITS, "time": "s"}, serialize=True,
+                        beside=[CORE, SLAVE] if variant else [CORE], ranges={**RANGES, **PARAM_RANGES},
+                        nominals=actuator_nominals(params, EXTRA["v_nominal"][1]), fmi=fmi, **flags)
 
 
 def actuator_nominals(params: P.Parameters, v_nominal: float) -> dict:
@@ -175,16 +199,17 @@ def build_companion_fmu(kind: str, out: str | os.PathLike, start: dict | None = 
 
 
 def _package(script: Path, cls: str, out, project_files, units: dict, serialize=False, beside=(), ranges=None,
-             nominals=None, **flags) -> Path:
-    """pythonfmu packs the slave; _rewrite fixes the description (units: variable name ->
-    unit, the slave module's UNITS; ranges: variable name -> (min, max), None for no
-    bound, its RANGES; nominals: variable name -> nominal value) and adds our binary.
-    `beside`: modules the script imports, copied next to it (pythonfmu imports the
-    script to read its interface)."""
+             nominals=None, fmi=2, **flags) -> Path:
+    """pythonfmu (FMI 3.0: pythonfmu3) packs the slave; _rewrite fixes the description
+    (units: variable name -> unit, the slave module's UNITS; ranges: variable name ->
+    (min, max), None for no bound, its RANGES; nominals: variable name -> nominal value)
+    and adds our binary. `beside`: modules the script imports, copied next to it
+    (pythonfmu imports the script to read its interface)."""
+    package = "pythonfmu" if fmi == 2 else "pythonfmu3"
     try:
-        from pythonfmu import FmuBuilder
+        FmuBuilder = importlib.import_module(package).FmuBuilder
     except ImportError:
-        raise BuildError("pythonfmu is not installed: pip install 'dfa-toolkit[fmu]'") from None
+        raise BuildError(f"{package} is not installed: pip install 'dfa-toolkit[fmu]'") from None
     out = output_path(out, ".fmu")
     with tempfile.TemporaryDirectory(prefix="dfa_fmu_") as tmp:
         tmp = Path(tmp)
@@ -195,21 +220,24 @@ def _package(script: Path, cls: str, out, project_files, units: dict, serialize=
             shutil.copy2(extra, src / Path(extra).name)
         raw = FmuBuilder.build_FMU(src / script.name, dest=tmp / f"{cls}.fmu", project_files=project_files,
                                    needsExecutionTool=True, **flags)
-        _rewrite(Path(raw), out, tmp, cls, units, serialize, ranges or {}, nominals or {})
+        _rewrite(Path(raw), out, tmp, cls, units, serialize, ranges or {}, nominals or {}, fmi)
     return out
 
 
-def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize, ranges, nominals) -> None:
+def _rewrite(raw: Path, out: Path, tmp: Path, cls: str, units, serialize, ranges, nominals, fmi=2) -> None:
+    # pythonfmu3 also packs the sources of its library (sources/): not our binary's
     with zipfile.ZipFile(raw) as zin:
-        entries = {name: zin.read(name) for name in zin.namelist() if not name.startswith("binaries/")}
+        entries = {name: zin.read(name) for name in zin.namelist()
+                   if not name.startswith(("binaries/", "sources/"))}
     entries["modelDescription.xml"] = _fix_description(entries["modelDescription.xml"], units, serialize, ranges,
                                                        nominals)
+    mid = ET.fromstring(entries["modelDescription.xml"]).find("CoSimulation").get("modelIdentifier")
     entries["resources/slaveclass.txt"] = (cls + "\n").encode()
     # a C host's Python when DFA_FMU_PYTHON names none: this one (fmi2_loader.c, fmi2_python.c)
     entries["resources/python.txt"] = (sys.executable + "\n").encode()
-    loader, implementation = compile_binary(tmp, cls)
-    entries[f"binaries/{_platform()}/{cls}.so"] = loader
-    entries[f"binaries/{_platform()}/{cls}-python.so"] = implementation
+    loader, implementation = compile_binary(tmp, mid, fmi)
+    entries[f"binaries/{_platform(fmi)}/{mid}.so"] = loader
+    entries[f"binaries/{_platform(fmi)}/{mid}-python.so"] = implementation
     write_zip(out, {name: data for name, data in entries.items() if "__pycache__" not in name})
 
 
@@ -248,35 +276,54 @@ def write_zip(out: Path, entries: dict) -> None:
     write_atomic(out, write)
 
 
-def _platform() -> str:
+def _platform(fmi: int = 2) -> str:
+    """The binaries' folder: FMI 2.0's platform name (linux64), FMI 3.0's platform tuple
+    (<architecture>-linux)."""
     if not sys.platform.startswith("linux") or sys.maxsize < 2 ** 32:
         raise BuildError(f"dfa fmu build supports 64-bit Linux only (this is {sys.platform})")
-    return "linux64"
+    if fmi == 2:
+        return "linux64"
+    import platform
+    arch = {"x86_64": "x86_64", "amd64": "x86_64", "aarch64": "aarch64", "arm64": "aarch64"}.get(
+        platform.machine().lower())
+    if arch is None:
+        raise BuildError(f"dfa fmu build --fmi 3: no FMI 3.0 platform tuple for {platform.machine()}")
+    return f"{arch}-linux"
 
 
-def compile_binary(tmp: Path, name: str) -> tuple[bytes, bytes]:
+def compile_binary(tmp: Path, name: str, fmi: int = 2) -> tuple[bytes, bytes]:
     """Compile the FMU's binary against this Python: the loader (fmu/c/fmi2_loader.c,
     the <name>.so a host loads; libc only) and the implementation (fmu/c/fmi2_python.c,
-    <name>-python.so). The implementation leaves CPython's symbols to the process: a
-    Python host has them, and for a C host the loader loads libpython first, so that a
-    missing Python is an fmi2Error with a log line instead of a dlopen failure."""
+    <name>-python.so); for FMI 3.0 fmi3_loader.c and fmi3_python.c (which includes
+    fmi2_python.c), exporting the fmi3 functions only. The implementation leaves
+    CPython's symbols to the process: a Python host has them, and for a C host the loader
+    loads libpython first, so that a missing Python is an error status with a log line
+    instead of a dlopen failure."""
     import fmpy
+    loader_c, impl_c = (HERE / "c" / f"fmi{fmi}_loader.c"), (HERE / "c" / f"fmi{fmi}_python.c")
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
     if not cc:
-        raise BuildError("no C compiler found (cc, gcc or clang; or set CC): the FMU's binary is compiled "
-                         "from fmu/c/fmi2_loader.c and fmu/c/fmi2_python.c")
+        raise BuildError(f"no C compiler found (cc, gcc or clang; or set CC): the FMU's binary is compiled "
+                         f"from fmu/c/{loader_c.name} and fmu/c/{impl_c.name}")
     lib = libpython()
     include = sysconfig.get_paths()["include"]
     if not (Path(include) / "Python.h").exists():
         raise BuildError(f"Python.h not found in {include}: install this Python's development headers")
-    fmi = str(Path(fmpy.__file__).parent / "c-code")
+    headers = str(Path(fmpy.__file__).parent / "c-code")      # the FMI 2.0 and 3.0 headers
+    if not (Path(headers) / f"fmi{fmi}Functions.h").exists():
+        raise BuildError(f"fmpy's FMI {fmi} headers not found in {headers}: pip install 'fmpy>=0.3.20'")
     loader, implementation = tmp / f"{name}.so", tmp / f"{name}-python.so"
+    exports = []
+    if fmi == 3:      # the FMI 3.0 binary exports FMI 3.0's functions only (not fmi2_python.c's)
+        script = tmp / "fmi3.map"
+        script.write_text("{ global: fmi3*; local: *; };\n")
+        exports = [f"-Wl,--version-script={script}"]
     # -ffp-contract=off: the fast steps' polynomial must round as NumPy's does (no FMA);
     # -Bsymbolic: the implementation's calls stay inside it, whatever the host exports
-    cmds = [[cc, "-shared", "-fPIC", "-O2", "-ffp-contract=off", "-Wl,-Bsymbolic", "-o", str(implementation),
-             str(HERE / "c" / "fmi2_python.c"), "-I", fmi, "-I", include, "-ldl", "-lm", "-lpthread"],
-            [cc, "-shared", "-fPIC", "-O2", "-o", str(loader), str(HERE / "c" / "fmi2_loader.c"), "-I", fmi,
-             f"-DDFA_PY_MAJOR={sys.version_info.major}", f"-DDFA_PY_MINOR={sys.version_info.minor}",
+    cmds = [[cc, "-shared", "-fPIC", "-O2", "-ffp-contract=off", "-Wl,-Bsymbolic", *exports, "-o", str(implementation),
+             str(impl_c), "-I", str(HERE / "c"), "-I", headers, "-I", include, "-ldl", "-lm", "-lpthread"],
+            [cc, "-shared", "-fPIC", "-O2", *exports, "-o", str(loader), str(loader_c), "-I", str(HERE / "c"),
+             "-I", headers, f"-DDFA_PY_MAJOR={sys.version_info.major}", f"-DDFA_PY_MINOR={sys.version_info.minor}",
              f'-DDFA_LIBPYTHON="{lib.name}"', f'-DDFA_LIBDIR="{lib.parent}"', "-ldl", "-lpthread"]]
     for cmd in cmds:
         r = subprocess.run(cmd, capture_output=True, text=True)
@@ -288,22 +335,40 @@ def compile_binary(tmp: Path, name: str) -> tuple[bytes, bytes]:
 # the attributes of a <Real> in the FMI 2.0 schema's order (written in that order)
 _REAL_ATTRS = ("declaredType", "quantity", "unit", "displayUnit", "relativeQuantity", "min", "max", "nominal",
                "unbounded", "start", "derivative", "reinit")
+# FMI 3.0: a variable's own attributes (Float64's, the others' a subset), in the schema's order
+_FLOAT64_ATTRS = ("name", "valueReference", "description", "causality", "variability", "initial",
+                  "canHandleMultipleSetPerTimeInstant", "intermediateUpdate", "previous", "clocks", "declaredType",
+                  "quantity", "unit", "displayUnit", "relativeQuantity", "unbounded", "min", "max", "nominal", "start",
+                  "derivative", "reinit")
+# FMI 3.0 co-simulation capabilities (fmu/c/fmi3_python.c): what pythonfmu3 leaves out or gets wrong
+# (0.3.4 writes canHandleVariableCommunicationStepSize as the last option's value)
+_FMI3_COSIMULATION = {"needsExecutionTool": "true", "canBeInstantiatedOnlyOncePerProcess": "false",
+                      "canGetAndSetFMUState": "true", "providesDirectionalDerivative": "false",
+                      "providesAdjointDerivatives": "false", "providesPerElementDependencies": "false",
+                      "canHandleVariableCommunicationStepSize": "true", "maxOutputDerivativeOrder": "0",
+                      "providesIntermediateUpdate": "false", "mightReturnEarlyFromDoStep": "false",
+                      "canReturnEarlyAfterIntermediateUpdate": "false", "hasEventMode": "false",
+                      "providesEvaluateDiscreteStates": "false"}
 
 
 def _fix_description(xml: bytes, units_of: dict, serialize: bool, ranges: dict | None = None,
                      nominals: dict | None = None) -> bytes:
     """The model description with units, display units, ranges, nominal values and the
-    ModelStructure (see the module's docstring). units_of: variable name -> unit as the
-    project writes it (fmu.units.modelica translates; none: dimensionless, "1")."""
+    ModelStructure (see the module's docstring), for FMI 2.0 or 3.0 (its fmiVersion).
+    units_of: variable name -> unit as the project writes it (fmu.units.modelica
+    translates; none: dimensionless, "1")."""
     from . import units as U
     root = ET.fromstring(xml)
+    fmi3 = root.get("fmiVersion", "").startswith("3.")
+    real, integer = ("Float64", "Int32") if fmi3 else ("Real", "Integer")
     units: dict[str, list] = {}          # Modelica unit -> its display units, in order of use
-    outputs: list[int] = []
-    params: list[int] = []
+    outputs: list[str] = []              # FMI 2.0: the variables' indices; FMI 3.0: their value references
+    params: list[str] = []
     for i, sv in enumerate(root.find("ModelVariables"), start=1):
-        name, typed = sv.get("name"), sv[0]
+        name = sv.get("name")
+        typed = sv if fmi3 else sv[0]    # FMI 3.0: the variable element carries its type's attributes
         attrs = dict(typed.attrib)
-        if typed.tag == "Real":
+        if typed.tag == real:
             unit = U.modelica(units_of.get(name, ""))
             attrs["unit"] = unit
             displays = units.setdefault(unit, [])
@@ -314,42 +379,57 @@ def _fix_description(xml: bytes, units_of: dict, serialize: bool, ranges: dict |
                     displays.append(U.DISPLAY[name])
             if name in (nominals or {}):
                 attrs["nominal"] = f"{nominals[name]:.16g}"
-        if typed.tag in ("Real", "Integer") and name in (ranges or {}):
+        if typed.tag in (real, integer) and name in (ranges or {}):
             lo, hi = ranges[name]
-            fmt = (lambda v: str(int(v))) if typed.tag == "Integer" else (lambda v: f"{v:.16g}")
+            fmt = (lambda v: str(int(v))) if typed.tag == integer else (lambda v: f"{v:.16g}")
             if lo is not None:
                 attrs["min"] = fmt(lo)
             if hi is not None:
                 attrs["max"] = fmt(hi)
         typed.attrib.clear()
-        typed.attrib.update({k: attrs[k] for k in (*_REAL_ATTRS, *attrs) if k in attrs})
+        typed.attrib.update({k: attrs[k] for k in (*(_FLOAT64_ATTRS if fmi3 else _REAL_ATTRS), *attrs) if k in attrs})
+        key = sv.get("valueReference") if fmi3 else str(i)
         if sv.get("causality") == "output":
-            outputs.append(i)
+            outputs.append(key)
         elif sv.get("causality") == "parameter":
-            params.append(i)
-    # UnitDefinitions must precede ModelVariables (FMI 2.0 schema order)
+            params.append(key)
+    # UnitDefinitions must precede ModelVariables (the schemas' order: after the interface
+    # elements, before TypeDefinitions, LogCategories, DefaultExperiment, annotations)
+    for old in root.findall("UnitDefinitions"):
+        root.remove(old)
     ud = ET.Element("UnitDefinitions")
     for unit, displays in units.items():
         ud.append(U.unit_definition(unit, displays))
     children = list(root)
     pos = next(k for k, c in enumerate(children) if c.tag in ("TypeDefinitions", "LogCategories", "DefaultExperiment",
-                                                             "VendorAnnotations", "ModelVariables"))
+                                                             "VendorAnnotations", "Annotations", "ModelVariables"))
     root.insert(pos, ud)
-    # fmi2_python.c serializes the state when the slave can (the actuator: dfa_model.statecodec)
-    root.find("CoSimulation").set("canSerializeFMUstate", "true" if serialize else "false")
+    cs = root.find("CoSimulation")
+    if fmi3:
+        for key, value in _FMI3_COSIMULATION.items():
+            cs.set(key, value)
+        cs.set("canSerializeFMUState", "true" if serialize else "false")
+    else:
+        # fmi2_python.c serializes the state when the slave can (the actuator: dfa_model.statecodec)
+        cs.set("canSerializeFMUstate", "true" if serialize else "false")
     ms = root.find("ModelStructure")
     for child in list(ms):
         ms.remove(child)
-    outs = ET.SubElement(ms, "Outputs")
-    init = ET.Element("InitialUnknowns")
-    for i in outputs:
-        # in co-simulation the outputs depend on the state only, not directly on the inputs;
-        # after initialization on the parameters only (every slave computes its initial
-        # outputs without its inputs): without `dependencies` a master must assume all
-        # inputs too, and sees an algebraic loop through the system's feedback connections
-        ET.SubElement(outs, "Unknown", index=str(i), dependencies="")
-        ET.SubElement(init, "Unknown", index=str(i), dependencies=" ".join(map(str, params)))
-    ms.append(init)
+    # in co-simulation the outputs depend on the state only, not directly on the inputs;
+    # after initialization on the parameters only (every slave computes its initial
+    # outputs without its inputs): without `dependencies` a master must assume all
+    # inputs too, and sees an algebraic loop through the system's feedback connections
+    if fmi3:
+        for vr in outputs:
+            ET.SubElement(ms, "Output", valueReference=vr, dependencies="")
+        for vr in outputs:
+            ET.SubElement(ms, "InitialUnknown", valueReference=vr, dependencies=" ".join(params))
+    else:
+        outs = ET.SubElement(ms, "Outputs")
+        init = ET.SubElement(ms, "InitialUnknowns")
+        for i in outputs:
+            ET.SubElement(outs, "Unknown", index=i, dependencies="")
+            ET.SubElement(init, "Unknown", index=i, dependencies=" ".join(params))
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 

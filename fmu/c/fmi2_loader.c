@@ -30,6 +30,8 @@
 
 #include "fmi2Functions.h"
 #include "fmi2_common.h"
+#define DFA_WHERE "fmi2Instantiate"
+#include "loader_common.h"
 
 #define STR2(x) #x
 #define STR(x) STR2(x)
@@ -51,125 +53,12 @@ static struct {
 static int loaded; /* impl is complete */
 static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
 
-/* The folder where the shared library of the Python at `path` (a venv folder or a
- * python executable) lives: a venv's base installation (pyvenv.cfg's home), else the
- * executable's own installation (<prefix>/bin/python -> <prefix>/lib). */
-static int libdir_of(const char *path, char *out, size_t n)
-{
-    char exe[PATH_MAX], cfg[PATH_MAX], real[PATH_MAX];
-    if (!python_of(path, exe, sizeof exe, cfg, sizeof cfg)) return 0;
-    FILE *f = fopen(cfg, "r");
-    if (f) {
-        char line[PATH_MAX], home[PATH_MAX] = {0};
-        while (fgets(line, sizeof line, f)) {
-            char *eq = strchr(line, '=');
-            if (strncmp(line, "home", 4) == 0 && eq) {
-                char *v = eq + 1;
-                while (*v == ' ') v++;
-                v[strcspn(v, "\r\n")] = 0;
-                snprintf(home, sizeof home, "%s", v);
-            }
-        }
-        fclose(f);
-        if (home[0]) {
-            snprintf(out, n, "%s/../lib", home);
-            return 1;
-        }
-    }
-    if (!realpath(exe, real)) return 0;
-    char *s = strrchr(real, '/');
-    if (!s) return 0;
-    *s = 0;
-    snprintf(out, n, "%s/../lib", real);
-    return 1;
-}
-
-/* Load libpython into the global scope (C hosts). Returns 1, or 0 with msg filled. */
-static int load_python(const char *resources, char *msg, size_t n)
-{
-    const char *lib = DFA_LIBPYTHON;
-    const char *env = getenv("DFA_FMU_PYTHON");
-    char tried[3 * PATH_MAX] = "", dir[PATH_MAX], path[PATH_MAX];
-    const char *err = "";
-    char *recorded = NULL;
-    const char *cands[3];
-    int nc = 0;
-    if (env && env[0]) { /* named explicitly: that one or nothing */
-        if (!libdir_of(env, dir, sizeof dir)) {
-            snprintf(msg, n, "fmi2Instantiate: DFA_FMU_PYTHON names %s: no Python there; set DFA_FMU_PYTHON to a "
-                             "Python %d.%d environment (a virtual environment's folder or its python) with the FMU's "
-                             "runtime dependencies (resources/RUNTIME.txt)", env, DFA_PY_MAJOR, DFA_PY_MINOR);
-            return 0;
-        }
-        cands[nc++] = strdup(dir);
-    } else {
-        recorded = first_line(resources, "python.txt");
-        if (recorded && libdir_of(recorded, dir, sizeof dir)) cands[nc++] = strdup(dir);
-        cands[nc++] = strdup(DFA_LIBDIR);
-        cands[nc++] = NULL; /* the system's search path */
-    }
-    int ok = 0;
-    for (int i = 0; i < nc && !ok; i++) {
-        if (cands[i]) snprintf(path, sizeof path, "%s/%s", cands[i], lib);
-        else snprintf(path, sizeof path, "%s", lib);
-        ok = dlopen(path, RTLD_NOW | RTLD_GLOBAL) != NULL;
-        if (!ok) {
-            const char *e = dlerror();
-            err = e ? e : "";
-            size_t k = strlen(tried);
-            snprintf(tried + k, sizeof tried - k, "%s%s", k ? ", " : "", path);
-        }
-    }
-    for (int i = 0; i < nc; i++) free((void *)cands[i]);
-    if (!ok)
-        snprintf(msg, n, "fmi2Instantiate: this FMU runs on CPython %d.%d and needs its shared library %s, which "
-                         "could not be loaded (tried %s; %s): install CPython %d.%d with its shared library (built "
-                         "with --enable-shared; Debian/Ubuntu: libpython%d.%d) and, in an environment of it, the FMU's "
-                         "runtime dependencies (resources/RUNTIME.txt); name that environment in DFA_FMU_PYTHON%s%s",
-                 DFA_PY_MAJOR, DFA_PY_MINOR, lib, tried, err, DFA_PY_MAJOR, DFA_PY_MINOR, DFA_PY_MAJOR, DFA_PY_MINOR,
-                 recorded ? " (without it: the Python that built the FMU, " : "", recorded ? recorded : "");
-    if (!ok && recorded) strncat(msg, ")", n - strlen(msg) - 1);
-    free(recorded);
-    return ok;
-}
-
-/* A Python already in the process (a Python host, or an earlier instance): is it ours? */
-static int python_present(char *msg, size_t n)
-{
-    const char *(*version)(void) = (const char *(*)(void))dlsym(RTLD_DEFAULT, "Py_GetVersion");
-    if (!version) return 0;
-    int major = 0, minor = 0;
-    if (sscanf(version(), "%d.%d", &major, &minor) == 2 && (major != DFA_PY_MAJOR || minor != DFA_PY_MINOR))
-        snprintf(msg, n, "fmi2Instantiate: this FMU was built for Python %d.%d; the host runs Python %d.%d: run it "
-                         "from a Python %d.%d host, or rebuild it there (dfa fmu build)", DFA_PY_MAJOR, DFA_PY_MINOR,
-                 major, minor, DFA_PY_MAJOR, DFA_PY_MINOR);
-    return 1;
-}
-
 /* Load Python (if needed) and the implementation; 1 on success, else 0 with msg. */
 static int load(const char *resources, char *msg, size_t n)
 {
-    msg[0] = 0;
-    if (!python_present(msg, n)) {
-        if (!load_python(resources, msg, n)) return 0;
-    } else if (msg[0]) {
-        return 0;
-    }
-    Dl_info info;
     char path[PATH_MAX];
-    if (!dladdr((void *)&load, &info) || !info.dli_fname) {
-        snprintf(msg, n, "fmi2Instantiate: cannot find the FMU's binary folder");
-        return 0;
-    }
-    snprintf(path, sizeof path, "%s", info.dli_fname);
-    char *dot = strrchr(path, '.');
-    if (dot && strcmp(dot, ".so") == 0) *dot = 0;
-    strncat(path, "-python.so", sizeof path - strlen(path) - 1);
-    void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-    if (!h) {
-        snprintf(msg, n, "fmi2Instantiate: cannot load the FMU's implementation %s: %s", path, dlerror());
-        return 0;
-    }
+    void *h = load_implementation(resources, msg, n, path, sizeof path);
+    if (!h) return 0;
 #define LOOKUP(f)                                                                          \
     if (!(impl.f = (fmi2##f##TYPE *)dlsym(h, "fmi2" #f))) {                                \
         snprintf(msg, n, "fmi2Instantiate: %s has no fmi2" #f " (a broken FMU)", path); \

@@ -48,6 +48,22 @@
 #include "fmi2Functions.h"
 #include "fmi2_common.h"
 
+/* The FMI version this file is compiled for: 2 (default: the FMI 2.0 binary, exporting
+ * the fmi2 functions below), or 3 when fmi3_python.c includes it (its FMI 3.0 functions
+ * call the ones below, and the Python side is pythonfmu3's Fmi3Slave API). The version
+ * changes names only: the functions' names in messages, the state names, the Python
+ * methods and variable classes read, the host's logger and the serialization's magic. */
+#ifndef DFA_FMI
+#define DFA_FMI 2
+#endif
+#if DFA_FMI == 3
+#include "fmi3Functions.h"
+#define FMI_NAME(n2, n3) n3
+#else
+#define FMI_NAME(n2, n3) n2
+#endif
+#define API_INSTANTIATE FMI_NAME("fmi2Instantiate", "fmi3InstantiateCoSimulation")
+
 /* ------------------------------------------------------------------ state machine */
 /* FMI 2.0.x, section 4.2.4 "State Machine of Calling Sequence from Master to Slave".
  * stepInProgress and stepCanceled are never entered: doStep is synchronous. */
@@ -64,8 +80,9 @@ enum {
 #define ST_GET (ST_INIT | ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED | ST_ERROR)
 #define ST_SET (ST_INSTANTIATED | ST_INIT | ST_STEP_COMPLETE)
 
-static const char *STATE_NAMES[] = {"instantiated", "initializationMode", "stepComplete", "stepFailed",
-                                    "terminated",   "error",              "stepInProgress"};
+static const char *STATE_NAMES[] = {"instantiated", "initializationMode", FMI_NAME("stepComplete", "stepMode"),
+                                    FMI_NAME("stepFailed", "stepDiscarded"), "terminated", "error",
+                                    "stepInProgress"};
 
 enum Fn {
     F_SetDebugLogging, F_SetupExperiment, F_EnterInitializationMode, F_ExitInitializationMode, F_Terminate, F_Reset,
@@ -83,37 +100,37 @@ static const struct {
     const char *name;
     unsigned allowed;
 } TABLE[NFN] = {
-    [F_SetDebugLogging] = {"fmi2SetDebugLogging", ST_ANY},
-    [F_SetupExperiment] = {"fmi2SetupExperiment", ST_INSTANTIATED},
-    [F_EnterInitializationMode] = {"fmi2EnterInitializationMode", ST_INSTANTIATED},
-    [F_ExitInitializationMode] = {"fmi2ExitInitializationMode", ST_INIT},
-    [F_Terminate] = {"fmi2Terminate", ST_STEP_COMPLETE | ST_STEP_FAILED},
-    [F_Reset] = {"fmi2Reset", ST_ANY},
-    [F_GetReal] = {"fmi2GetReal", ST_GET},
-    [F_GetInteger] = {"fmi2GetInteger", ST_GET},
-    [F_GetBoolean] = {"fmi2GetBoolean", ST_GET},
-    [F_GetString] = {"fmi2GetString", ST_GET},
-    [F_SetReal] = {"fmi2SetReal", ST_SET},
-    [F_SetInteger] = {"fmi2SetInteger", ST_SET},
-    [F_SetBoolean] = {"fmi2SetBoolean", ST_SET},
-    [F_SetString] = {"fmi2SetString", ST_SET},
-    [F_GetFMUstate] = {"fmi2GetFMUstate", ST_ANY},
-    [F_SetFMUstate] = {"fmi2SetFMUstate", ST_ANY},
-    [F_FreeFMUstate] = {"fmi2FreeFMUstate", ST_ANY},
-    [F_SerializedFMUstateSize] = {"fmi2SerializedFMUstateSize", ST_ANY},
-    [F_SerializeFMUstate] = {"fmi2SerializeFMUstate", ST_ANY},
-    [F_DeSerializeFMUstate] = {"fmi2DeSerializeFMUstate", ST_ANY},
-    [F_GetDirectionalDerivative] = {"fmi2GetDirectionalDerivative", ST_GET},
-    [F_SetRealInputDerivatives] = {"fmi2SetRealInputDerivatives", ST_SET},
-    [F_GetRealOutputDerivatives] = {"fmi2GetRealOutputDerivatives",
+    [F_SetDebugLogging] = {FMI_NAME("fmi2SetDebugLogging", "fmi3SetDebugLogging"), ST_ANY},
+    [F_SetupExperiment] = {FMI_NAME("fmi2SetupExperiment", "fmi3EnterInitializationMode"), ST_INSTANTIATED},
+    [F_EnterInitializationMode] = {FMI_NAME("fmi2EnterInitializationMode", "fmi3EnterInitializationMode"), ST_INSTANTIATED},
+    [F_ExitInitializationMode] = {FMI_NAME("fmi2ExitInitializationMode", "fmi3ExitInitializationMode"), ST_INIT},
+    [F_Terminate] = {FMI_NAME("fmi2Terminate", "fmi3Terminate"), ST_STEP_COMPLETE | ST_STEP_FAILED},
+    [F_Reset] = {FMI_NAME("fmi2Reset", "fmi3Reset"), ST_ANY},
+    [F_GetReal] = {FMI_NAME("fmi2GetReal", "fmi3GetFloat64"), ST_GET},
+    [F_GetInteger] = {FMI_NAME("fmi2GetInteger", "fmi3GetInt32"), ST_GET},
+    [F_GetBoolean] = {FMI_NAME("fmi2GetBoolean", "fmi3GetBoolean"), ST_GET},
+    [F_GetString] = {FMI_NAME("fmi2GetString", "fmi3GetString"), ST_GET},
+    [F_SetReal] = {FMI_NAME("fmi2SetReal", "fmi3SetFloat64"), ST_SET},
+    [F_SetInteger] = {FMI_NAME("fmi2SetInteger", "fmi3SetInt32"), ST_SET},
+    [F_SetBoolean] = {FMI_NAME("fmi2SetBoolean", "fmi3SetBoolean"), ST_SET},
+    [F_SetString] = {FMI_NAME("fmi2SetString", "fmi3SetString"), ST_SET},
+    [F_GetFMUstate] = {FMI_NAME("fmi2GetFMUstate", "fmi3GetFMUState"), ST_ANY},
+    [F_SetFMUstate] = {FMI_NAME("fmi2SetFMUstate", "fmi3SetFMUState"), ST_ANY},
+    [F_FreeFMUstate] = {FMI_NAME("fmi2FreeFMUstate", "fmi3FreeFMUState"), ST_ANY},
+    [F_SerializedFMUstateSize] = {FMI_NAME("fmi2SerializedFMUstateSize", "fmi3SerializedFMUStateSize"), ST_ANY},
+    [F_SerializeFMUstate] = {FMI_NAME("fmi2SerializeFMUstate", "fmi3SerializeFMUState"), ST_ANY},
+    [F_DeSerializeFMUstate] = {FMI_NAME("fmi2DeSerializeFMUstate", "fmi3DeserializeFMUState"), ST_ANY},
+    [F_GetDirectionalDerivative] = {FMI_NAME("fmi2GetDirectionalDerivative", "fmi3GetDirectionalDerivative"), ST_GET},
+    [F_SetRealInputDerivatives] = {FMI_NAME("fmi2SetRealInputDerivatives", "fmi2SetRealInputDerivatives"), ST_SET},
+    [F_GetRealOutputDerivatives] = {FMI_NAME("fmi2GetRealOutputDerivatives", "fmi3GetOutputDerivatives"),
                                     ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED | ST_ERROR},
-    [F_DoStep] = {"fmi2DoStep", ST_STEP_COMPLETE},
-    [F_CancelStep] = {"fmi2CancelStep", ST_STEP_IN_PROGRESS},
-    [F_GetStatus] = {"fmi2GetStatus", ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
-    [F_GetRealStatus] = {"fmi2GetRealStatus", ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
-    [F_GetIntegerStatus] = {"fmi2GetIntegerStatus", ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
-    [F_GetBooleanStatus] = {"fmi2GetBooleanStatus", ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
-    [F_GetStringStatus] = {"fmi2GetStringStatus", ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
+    [F_DoStep] = {FMI_NAME("fmi2DoStep", "fmi3DoStep"), ST_STEP_COMPLETE},
+    [F_CancelStep] = {FMI_NAME("fmi2CancelStep", "fmi2CancelStep"), ST_STEP_IN_PROGRESS},
+    [F_GetStatus] = {FMI_NAME("fmi2GetStatus", "fmi2GetStatus"), ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
+    [F_GetRealStatus] = {FMI_NAME("fmi2GetRealStatus", "fmi2GetRealStatus"), ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
+    [F_GetIntegerStatus] = {FMI_NAME("fmi2GetIntegerStatus", "fmi2GetIntegerStatus"), ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
+    [F_GetBooleanStatus] = {FMI_NAME("fmi2GetBooleanStatus", "fmi2GetBooleanStatus"), ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
+    [F_GetStringStatus] = {FMI_NAME("fmi2GetStringStatus", "fmi2GetStringStatus"), ST_STEP_COMPLETE | ST_STEP_FAILED | ST_TERMINATED},
 };
 
 static const char *state_name(unsigned s)
@@ -136,7 +153,8 @@ static void states_text(unsigned mask, char *out, size_t n)
 
 /* ------------------------------------------------------------------ instance */
 enum { K_NONE, K_REAL, K_INTEGER, K_BOOLEAN, K_STRING };
-static const char *KIND_NAMES[] = {"unknown", "Real", "Integer", "Boolean", "String"};
+static const char *KIND_NAMES[] = {"unknown", FMI_NAME("Real", "Float64"), FMI_NAME("Integer", "Int32"), "Boolean",
+                                   "String"};
 #define MAX_VR 1000000u /* a larger value reference table is refused at instantiation */
 #define STATE_MAGIC 0x46535441u
 
@@ -166,7 +184,11 @@ typedef struct State {
 struct Comp {
     PyObject *cls;
     PyObject *slave;
-    fmi2CallbackFunctions cb;
+    fmi2CallbackFunctions cb; /* FMI 2.0: the host's callbacks */
+#if DFA_FMI == 3
+    fmi3LogMessageCallback log3; /* FMI 3.0: the host's logger and its environment */
+    fmi3InstanceEnvironment env3;
+#endif
     char *name;
     char *resources;
     int logging;
@@ -239,6 +261,17 @@ static Comp *registry_find(const void *comp)
 /* ------------------------------------------------------------------ logging */
 static const char *CATS[] = {"logAll", "logStatusWarning", "logStatusDiscard", "logStatusError", "logStatusFatal"};
 
+/* One message to the host's logger: FMI 2.0's (which may format it: '%' escaped) or FMI
+ * 3.0's (the message as it is). The statuses' values are the same in both. */
+static void host_log(Comp *c, fmi2Status st, const char *cat, const char *msg)
+{
+#if DFA_FMI == 3
+    if (c->log3) c->log3(c->env3, (fmi3Status)st, cat, msg);
+#else
+    log_escaped(&c->cb, c->name, st, cat, msg);
+#endif
+}
+
 static fmi2Status logf_(Comp *c, fmi2Status st, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 static fmi2Status logf_(Comp *c, fmi2Status st, const char *fmt, ...)
 {
@@ -247,7 +280,7 @@ static fmi2Status logf_(Comp *c, fmi2Status st, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    log_escaped(&c->cb, c->name, st, CATS[st <= fmi2Fatal ? st : 0], msg);
+    host_log(c, st, CATS[st <= fmi2Fatal ? st : 0], msg);
     return st;
 }
 
@@ -294,7 +327,7 @@ static fmi2Status drain_log(Comp *c)
                   ms ? ms : "(unreadable message)");
             status = fmi2Warning;
         } else if (c->logging || !debug) {
-            log_escaped(&c->cb, c->name, (fmi2Status)status, cs ? cs : CATS[status], ms ? ms : "(unreadable message)");
+            host_log(c, (fmi2Status)status, cs ? cs : CATS[status], ms ? ms : "(unreadable message)");
         }
         if (status > (long)worst) worst = (fmi2Status)status;
         Py_XDECREF(st);
@@ -325,7 +358,7 @@ static fmi2Status fail(Comp *c, const char *where)
     char *msg = (char *)malloc(n);
     if (msg) {
         snprintf(msg, n, "%s: %s", where, text);
-        log_escaped(&c->cb, c->name, fmi2Error, "logStatusError", msg);
+        host_log(c, fmi2Error, "logStatusError", msg);
         free(msg);
     }
     Py_XDECREF(s);
@@ -439,6 +472,8 @@ static void set_mask(Var *v, PyObject *caus, PyObject *varia, PyObject *init)
         v->why = "it is a constant";
     } else if (name_is(caus, "output")) {
         v->why = "it is an output";
+    } else if (name_is(caus, "independent")) {
+        v->why = "it is the independent variable";
     } else if (!input && !exact && !approx) {
         v->why = "it is calculated";
     } else {
@@ -473,11 +508,11 @@ static double bound(PyObject *var, const char *attr, double dflt)
  * once, so that access checks need no Python. */
 static int read_vars(PyObject *slave, Var **out, size_t *nout)
 {
-    PyObject *mod = PyImport_ImportModule("pythonfmu.variables");
+    PyObject *mod = PyImport_ImportModule(FMI_NAME("pythonfmu.variables", "pythonfmu3.variables"));
     PyObject *vars = PyObject_GetAttrString(slave, "vars");
     PyObject *items = vars ? PyMapping_Items(vars) : NULL;
     PyObject *classes[5] = {NULL};
-    static const char *cls_names[5] = {NULL, "Real", "Integer", "Boolean", "String"};
+    static const char **cls_names = KIND_NAMES; /* the pythonfmu(3) variable classes' names */
     Var *table = NULL;
     size_t n = 0;
     int ok = mod && items != NULL;
@@ -518,7 +553,8 @@ static int read_vars(PyObject *slave, Var **out, size_t *nout)
         if (!v->kind || !s || !caus || !varia || !init) {
             Py_XDECREF(name), Py_XDECREF(caus), Py_XDECREF(varia), Py_XDECREF(init);
             PyErr_Clear();
-            PyErr_Format(PyExc_TypeError, "slave.vars[%lu]: not a pythonfmu Real/Integer/Boolean/String variable", vr);
+            PyErr_Format(PyExc_TypeError, "slave.vars[%lu]: not a %s %s/%s/Boolean/String variable", vr,
+                         FMI_NAME("pythonfmu", "pythonfmu3"), KIND_NAMES[K_REAL], KIND_NAMES[K_INTEGER]);
             ok = 0;
             break;
         }
@@ -649,14 +685,14 @@ static char *choose_python(Comp *c)
     const char *path = env && env[0] ? env : recorded;
     if (!path || !path[0]) {
         free(recorded);
-        logf_(c, fmi2Error, "fmi2Instantiate: no Python environment: set DFA_FMU_PYTHON to a Python %d.%d "
+        logf_(c, fmi2Error, API_INSTANTIATE ": no Python environment: set DFA_FMU_PYTHON to a Python %d.%d "
                             "environment with the FMU's runtime dependencies (resources/RUNTIME.txt)",
               PY_MAJOR_VERSION, PY_MINOR_VERSION);
         return NULL;
     }
     char exe[PATH_MAX], cfg[PATH_MAX];
     if (!python_of(path, exe, sizeof exe, cfg, sizeof cfg)) {
-        logf_(c, fmi2Error, "fmi2Instantiate: %s names %s: no Python there; set DFA_FMU_PYTHON to a Python %d.%d "
+        logf_(c, fmi2Error, API_INSTANTIATE ": %s names %s: no Python there; set DFA_FMU_PYTHON to a Python %d.%d "
                             "environment (a virtual environment's folder or its python) with the FMU's runtime "
                             "dependencies (resources/RUNTIME.txt)", from, exe, PY_MAJOR_VERSION, PY_MINOR_VERSION);
         free(recorded);
@@ -673,7 +709,7 @@ static char *choose_python(Comp *c)
                 break;
         fclose(f);
         if (major && (major != PY_MAJOR_VERSION || minor != PY_MINOR_VERSION)) {
-            logf_(c, fmi2Error, "fmi2Instantiate: %s names %s, a Python %d.%d environment; this FMU's binary embeds "
+            logf_(c, fmi2Error, API_INSTANTIATE ": %s names %s, a Python %d.%d environment; this FMU's binary embeds "
                                 "Python %d.%d: name a Python %d.%d environment", from, path, major, minor,
                   PY_MAJOR_VERSION, PY_MINOR_VERSION, PY_MAJOR_VERSION, PY_MINOR_VERSION);
             free(recorded);
@@ -705,7 +741,7 @@ static int ensure_python(Comp *c)
     if (!PyStatus_Exception(status)) status = Py_InitializeFromConfig(&config);
     PyConfig_Clear(&config);
     if (PyStatus_Exception(status)) {
-        logf_(c, fmi2Error, "fmi2Instantiate: starting Python %d.%d for %s failed: %s", PY_MAJOR_VERSION,
+        logf_(c, fmi2Error, API_INSTANTIATE ": starting Python %d.%d for %s failed: %s", PY_MAJOR_VERSION,
               PY_MINOR_VERSION, exe, status.err_msg ? status.err_msg : "unknown error");
         free(exe);
         return 0;
@@ -747,7 +783,8 @@ fmi2Status fmi2SetDebugLogging(fmi2Component comp, fmi2Boolean on, size_t n, con
     enum Fn fn_ = F_SetDebugLogging;
     if (n > 0) NEED(cats, "categories[]")
     for (size_t i = 0; i < n; i++)
-        if (!cats[i]) return logf_(c, fmi2Error, "fmi2SetDebugLogging: categories[%zu] is NULL", i);
+        if (!cats[i]) return logf_(c, fmi2Error, "%s: categories[%zu] is NULL",
+                                   TABLE[F_SetDebugLogging].name, i);
     c->logging = on ? 1 : 0;
     return fmi2OK;
 }
@@ -758,6 +795,8 @@ static void free_comp(Comp *c)
     free(c->resources);
     free(c);
 }
+
+static Comp *instantiate(Comp *c);
 
 fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, fmi2String resourceLocation,
                               const fmi2CallbackFunctions *cb, fmi2Boolean visible, fmi2Boolean loggingOn)
@@ -783,10 +822,19 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
         free_comp(c);
         return NULL;
     }
+    return (fmi2Component)instantiate(c);
+}
+
+/* Make the slave of c (which has its name, resources folder, logging, visibility and the
+ * host's logger): find its class (resources/slavemodule.txt, slaveclass.txt), start
+ * Python if the host has none, instantiate. Returns c, registered, or NULL after logging
+ * why (c freed). */
+static Comp *instantiate(Comp *c)
+{
     char *module = first_line(c->resources, "slavemodule.txt");
     char *clsname = first_line(c->resources, "slaveclass.txt");
     if (!module || !clsname || !module[0] || !clsname[0]) {
-        logf_(c, fmi2Error, "fmi2Instantiate: %s/slavemodule.txt or slaveclass.txt missing or empty "
+        logf_(c, fmi2Error, API_INSTANTIATE ": %s/slavemodule.txt or slaveclass.txt missing or empty "
                             "(fmuResourceLocation wrong?)", c->resources);
         free(module);
         free(clsname);
@@ -814,7 +862,7 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     PyObject *slave = c->cls ? new_slave(c) : NULL;
     int ok = slave && install_slave(c, slave);
     if (!ok) {
-        fail(c, "fmi2Instantiate"); /* c->slave is NULL: drain_log skips the queue */
+        fail(c, API_INSTANTIATE); /* c->slave is NULL: drain_log skips the queue */
         Py_XDECREF(c->cls);
     } else {
         drain_log(c);
@@ -828,7 +876,7 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     }
     c->st = ST_INSTANTIATED;
     registry_add(c);
-    return (fmi2Component)c;
+    return c;
 }
 
 void fmi2FreeInstance(fmi2Component comp)
@@ -852,18 +900,20 @@ fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean tolDefined, fmi2R
 {
     ENTER(SetupExperiment)
     if (tolDefined && !(isfinite(tol) && tol > 0))
-        return logf_(c, fmi2Error, "fmi2SetupExperiment: tolerance = %g, expected a finite number > 0", tol);
-    if (!isfinite(start)) return logf_(c, fmi2Error, "fmi2SetupExperiment: startTime = %g, expected a finite time", start);
+        return logf_(c, fmi2Error, "%s: tolerance = %g, expected a finite number > 0", TABLE[F_SetupExperiment].name,
+                     tol);
+    if (!isfinite(start))
+        return logf_(c, fmi2Error, "%s: startTime = %g, expected a finite time", TABLE[F_SetupExperiment].name, start);
     if (stopDefined && !(isfinite(stop) && stop >= start))
-        return logf_(c, fmi2Error, "fmi2SetupExperiment: stopTime = %g, expected a finite time >= startTime = %g",
-                     stop, start);
+        return logf_(c, fmi2Error, "%s: stopTime = %g, expected a finite time >= startTime = %g",
+                     TABLE[F_SetupExperiment].name, stop, start);
     GIL_BEGIN
     PyObject *ptol = tolDefined ? PyFloat_FromDouble(tol) : (Py_INCREF(Py_None), Py_None);
     PyObject *pstop = stopDefined ? PyFloat_FromDouble(stop) : (Py_INCREF(Py_None), Py_None);
     PyObject *r = (ptol && pstop) ? PyObject_CallMethod(c->slave, "setup_experiment", "dOO", start, pstop, ptol) : NULL;
     Py_XDECREF(ptol);
     Py_XDECREF(pstop);
-    fmi2Status st = finish(c, "fmi2SetupExperiment", r);
+    fmi2Status st = finish(c, TABLE[F_SetupExperiment].name, r);
     GIL_END
     if (st <= fmi2Warning) {
         c->start = c->time = start;
@@ -912,7 +962,7 @@ fmi2Status fmi2Reset(fmi2Component comp)
     PyObject *old = c->slave;
     Py_XINCREF(old);
     if (!fresh || !install_slave(c, fresh)) {
-        st = fail(c, "fmi2Reset");
+        st = fail(c, TABLE[F_Reset].name);
     } else {
         st = drain_log(c);
         Py_CLEAR(c->strings);
@@ -941,8 +991,10 @@ static PyObject *vr_list(const fmi2ValueReference vr[], size_t n)
     return l;
 }
 
-static const char *GETTERS[] = {NULL, "get_real", "get_integer", "get_boolean", "get_string"};
-static const char *SETTERS[] = {NULL, "set_real", "set_integer", "set_boolean", "set_string"};
+static const char *GETTERS[] = {NULL, FMI_NAME("get_real", "get_float64"), FMI_NAME("get_integer", "get_int32"),
+                                "get_boolean", "get_string"};
+static const char *SETTERS[] = {NULL, FMI_NAME("set_real", "set_float64"), FMI_NAME("set_integer", "set_int32"),
+                                "set_boolean", "set_string"};
 
 /* get_<kind>(vrs) as a list or tuple of exactly n items (new reference), else NULL
  * with a Python error set */
@@ -1149,7 +1201,8 @@ static fmi2Status set_values(fmi2Component comp, enum Fn fn, int kind, const fmi
     if (kind == K_STRING) {
         for (size_t i = 0; i < n; i++)
             if (!((const fmi2String *)value)[i])
-                return logf_(c, fmi2Error, "fmi2SetString: value[%zu] (value reference %u) is NULL", i, vr[i]);
+                return logf_(c, fmi2Error, "%s: value[%zu] (value reference %u) is NULL",
+                             TABLE[F_SetString].name, i, vr[i]);
     }
     GIL_BEGIN
     fmi2Status st = py_set(c, fn, kind, vr, n, value);
@@ -1235,7 +1288,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component comp, fmi2FMUstate *state)
     if (!s) return fmi2Error;
     GIL_BEGIN
     PyObject *py = PyObject_CallMethod(c->slave, "_get_fmu_state", NULL);
-    fmi2Status st = py ? drain_log(c) : fail(c, "fmi2GetFMUstate");
+    fmi2Status st = py ? drain_log(c) : fail(c, TABLE[F_GetFMUstate].name);
     if (py) fill_state(c, s, fresh, py, c->st, c->time, c->start, c->stop, c->stop_defined, state);
     else if (fresh) free(s);
     GIL_END
@@ -1249,7 +1302,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component comp, fmi2FMUstate state)
     if (!s) return fmi2Error;
     GIL_BEGIN
     /* the slave validates the whole state before it assigns anything (atomic) */
-    fmi2Status st = finish(c, "fmi2SetFMUstate", PyObject_CallMethod(c->slave, "_set_fmu_state", "O", s->py));
+    fmi2Status st = finish(c, TABLE[F_SetFMUstate].name, PyObject_CallMethod(c->slave, "_set_fmu_state", "O", s->py));
     GIL_END
     if (st <= fmi2Warning) {
         c->st = s->st;
@@ -1277,10 +1330,11 @@ fmi2Status fmi2FreeFMUstate(fmi2Component comp, fmi2FMUstate *state)
 }
 
 /* Serialized state: a 56-byte header, then the slave's bytes (its
- * _fmu_state_to_bytes). Header, little-endian: magic "FMI2PYST", u32 format version,
+ * _fmu_state_to_bytes). Header, little-endian: magic "FMI2PYST" ("FMI3PYST" in the FMI 3.0
+ * binary: a state of one version is refused by the other), u32 format version,
  * u32 state-machine state, f64 time, f64 start time, f64 stop time, u32 stop defined,
  * u32 CRC-32 of everything else (header and payload), u64 payload length. */
-#define SER_MAGIC "FMI2PYST"
+#define SER_MAGIC FMI_NAME("FMI2PYST", "FMI3PYST")
 #define SER_VERSION 1u
 #define SER_HEAD 56
 #define SER_MAX ((size_t)1 << 30)
@@ -1385,7 +1439,7 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component comp, fmi2FMUstate state, si
     GIL_BEGIN
     PyObject *b = serialized(c, s);
     if (b) *size = (size_t)PyBytes_GET_SIZE(b);
-    fmi2Status st = b ? drain_log(c) : fail(c, "fmi2SerializedFMUstateSize");
+    fmi2Status st = b ? drain_log(c) : fail(c, TABLE[F_SerializedFMUstateSize].name);
     GIL_END
     return st;
 }
@@ -1401,10 +1455,10 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component comp, fmi2FMUstate state, fmi2Byt
     PyObject *b = serialized(c, s);
     fmi2Status st;
     if (!b) {
-        st = fail(c, "fmi2SerializeFMUstate");
+        st = fail(c, TABLE[fn_].name);
     } else if ((size_t)PyBytes_GET_SIZE(b) > size) {
-        st = logf_(c, fmi2Error, "fmi2SerializeFMUstate: buffer of %zu bytes, the state needs %zd "
-                                 "(fmi2SerializedFMUstateSize)", size, PyBytes_GET_SIZE(b));
+        st = logf_(c, fmi2Error, "%s: buffer of %zu bytes, the state needs %zd (%s)", TABLE[fn_].name, size,
+                   PyBytes_GET_SIZE(b), TABLE[F_SerializedFMUstateSize].name);
     } else {
         memcpy(out, PyBytes_AS_STRING(b), (size_t)PyBytes_GET_SIZE(b));
         st = drain_log(c);
@@ -1434,11 +1488,11 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component comp, const fmi2Byte in[], size
     ENTER(DeSerializeFMUstate)
     enum Fn fn_ = F_DeSerializeFMUstate;
     NEED(in, "serializedState[]")
-    if (size > SER_MAX) return logf_(c, fmi2Error, "fmi2DeSerializeFMUstate: %zu bytes, more than the limit of %zu",
-                                     size, SER_MAX);
+    if (size > SER_MAX)
+        return logf_(c, fmi2Error, "%s: %zu bytes, more than the limit of %zu", TABLE[fn_].name, size, SER_MAX);
     const unsigned char *b = (const unsigned char *)in;
     const char *bad = check_header(b, size);
-    if (bad) return logf_(c, fmi2Error, "fmi2DeSerializeFMUstate: %zu bytes: %s", size, bad);
+    if (bad) return logf_(c, fmi2Error, "%s: %zu bytes: %s", TABLE[fn_].name, size, bad);
     int fresh;
     State *s = state_slot(c, fn_, state, &fresh);
     if (!s) return fmi2Error;
@@ -1452,7 +1506,7 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component comp, const fmi2Byte in[], size
         if (!r) Py_CLEAR(py);
         Py_XDECREF(r);
     }
-    fmi2Status st = py ? drain_log(c) : fail(c, "fmi2DeSerializeFMUstate");
+    fmi2Status st = py ? drain_log(c) : fail(c, TABLE[fn_].name);
     if (py) fill_state(c, s, fresh, py, get_u32(b + 12), get_f64(b + 16), get_f64(b + 24), get_f64(b + 32),
                        (int)get_u32(b + 40), state);
     else if (fresh) free(s);
@@ -1500,15 +1554,17 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
 {
     ENTER(DoStep)
     (void)noSetPrior;
+    const char *fn = TABLE[F_DoStep].name;
     /* rejected before Python sees them: the instance stays in stepComplete */
     if (!isfinite(t) || !isfinite(h) || !(h > 0) || !isfinite(t + h))
-        return logf_(c, fmi2Error, "fmi2DoStep: currentCommunicationPoint = %g s, communicationStepSize = %g s; "
-                                   "expected finite values with communicationStepSize > 0", t, h);
+        return logf_(c, fmi2Error, "%s: currentCommunicationPoint = %g s, communicationStepSize = %g s; "
+                                   "expected finite values with communicationStepSize > 0", fn, t, h);
     if (fabs(t - c->time) > 1e-9 * fmax(1.0, fabs(c->time)))
-        return logf_(c, fmi2Error, "fmi2DoStep: currentCommunicationPoint = %.17g s, expected the end of the "
-                                   "previous step, %.17g s", t, c->time);
+        return logf_(c, fmi2Error, "%s: currentCommunicationPoint = %.17g s, expected the end of the "
+                                   "previous step, %.17g s", fn, t, c->time);
     if (c->stop_defined && t + h > c->stop + 1e-9 * fmax(1.0, fabs(c->stop)))
-        return logf_(c, fmi2Error, "fmi2DoStep: the step ends at %.17g s, after stopTime = %.17g s", t + h, c->stop);
+        return logf_(c, fmi2Error, "%s: the step ends at %.17g s, after stopTime = %.17g s", fn, t + h,
+                     c->stop);
     if (fast_step(c, t, h)) {
         c->time = t + h;
         return fmi2OK;
@@ -1528,14 +1584,14 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
         PyErr_Clear();
         PyErr_Restore(type, val, tb);
         char where[200];
-        snprintf(where, sizeof where, rejected ? "fmi2DoStep over [%.17g, %.17g] s refused (nothing changed)"
-                                               : "fmi2DoStep over [%.17g, %.17g] s failed", t, t + h);
+        snprintf(where, sizeof where, rejected ? "%s over [%.17g, %.17g] s refused (nothing changed)"
+                                               : "%s over [%.17g, %.17g] s failed", fn, t, t + h);
         st = fail(c, where);
         if (!rejected) c->st = ST_ERROR;
     } else if (!PyBool_Check(r)) {
         st = drain_log(c);
-        st = logf_(c, fmi2Error, "fmi2DoStep over [%.17g, %.17g] s: slave.do_step returned a %s, expected True or "
-                                 "False; the instance is now in the error state", t, t + h, Py_TYPE(r)->tp_name);
+        st = logf_(c, fmi2Error, "%s over [%.17g, %.17g] s: slave.do_step returned a %s, expected True or False; "
+                                 "the instance is now in the error state", fn, t, t + h, Py_TYPE(r)->tp_name);
         c->st = ST_ERROR;
     } else if (r == Py_True) {
         st = drain_log(c);
@@ -1543,8 +1599,9 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
         c->time = t + h;
     } else {
         drain_log(c);
-        st = logf_(c, fmi2Discard, "fmi2DoStep over [%.17g, %.17g] s: the slave did not complete the step "
-                                   "(stepFailed: get values, restore a state, terminate or reset)", t, t + h);
+        st = logf_(c, fmi2Discard, "%s over [%.17g, %.17g] s: the slave did not complete the step "
+                                   "(%s: get values, restore a state, terminate or reset)", fn, t, t + h,
+                   state_name(ST_STEP_FAILED));
         c->st = ST_STEP_FAILED;
     }
     Py_XDECREF(r);
