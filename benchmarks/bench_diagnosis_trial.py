@@ -34,7 +34,10 @@ RANGES = {"stiffness": ("k", 15.0, 60.0), "inertia": ("m", 0.02, 0.1), "polariza
           "series_resistance": ("R_s", 5e5, 2e6), "field_dependent_resistivity": ("m_rho", 4e4, 1.6e5)}
 
 
-def draw(i: int, seed: int) -> dict:
+def draw(i: int, seed: int, laws_outside: bool = False) -> dict:
+    """Case i of the trial. laws_outside: a field law's truth is drawn among Eq. (21) and
+    two forms the catalog does not contain (an exponential and a power law in the field,
+    dfa_model.synthetic), with the same relative slope at the zipped field of 6 kV."""
     rng = np.random.default_rng([seed, i])
     effect = EFFECTS[i % len(EFFECTS)]            # balanced: every effect and the null alike
     by_voltage = bool(rng.integers(2)) or effect == "field_dependent_resistivity"
@@ -52,6 +55,10 @@ def draw(i: int, seed: int) -> dict:
         if effect == "field_dependent_resistivity":
             # rho_l = 2e12 at the zipped field of 6 kV, falling with the field at slope -value
             truth = {"law": "linear", "m_rho": -value, "q_rho": 2e12 + value * 5.5e7}
+            form = ("eq21", "exp", "power")[int(rng.integers(3))] if laws_outside else "eq21"
+            if form != "eq21":
+                # the same relative slope d ln rho / d ln E at 5.5e7 V/m as the Eq. (21) draw
+                truth = {"outside": form, "s": value * 5.5e7 / 2e12}
         elif effect == "polarization_branch":
             truth = {"chi_p": value, "tau_p": float(math.exp(rng.uniform(math.log(0.1), math.log(3.0))))}
         else:
@@ -85,14 +92,20 @@ def run_one(case: dict) -> dict:
     kind, hz = DRIVES[case.get("drive", "reset_hold")]
     N = case.get("N", 21)
     nominal = preset("vshape-table1").replace(N=N, rho_l=3e12)
-    truth = nominal.replace(**{"rho_l": 2e12, **case["truth"]})
+    law, keys = None, dict(case["truth"])
+    if "outside" in keys:          # a law the parameter file cannot express (draw)
+        from dfa_model.synthetic import ExponentialResistivity, PowerResistivity
+        form, s = keys.pop("outside"), keys.pop("s")
+        law = ExponentialResistivity(2e12 * math.exp(s), 5.5e7 / s) if form == "exp" else \
+            PowerResistivity(2e12, 5.5e7, s, 1e6)
+    truth = nominal.replace(**{"rho_l": 2e12, **keys})
     meas = {**rig["measurement"], "noise": case["noise"], "rho_spread": case["rho_spread"]} \
         if case.get("rig", "ideal") == "ideal" else {**rig["measurement"], "noise": case["noise"]}
     wall = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         generate_dataset(Path(tmp) / "data", truth.replace(N=rig["truth_N"] * N), nominal, case["conditions"],
                          repetitions=3, reset=case["reset"], hold=case["hold"], measurement=Measurement(**meas),
-                         seed=case["seed"], pretrigger=rig["pretrigger"], drive=kind,
+                         seed=case["seed"], pretrigger=rig["pretrigger"], drive=kind, law=law,
                          **({} if kind == "reset_hold" else {"reset_frequency": hz}))
         D = diagnosis.diagnose(read_dataset(Path(tmp) / "data"), executor=InProcess())
         report = diagnosis.report.to_json(D)
@@ -143,6 +156,9 @@ def main(argv=None):
                     help="diagnosis.proofs.RIGS: ideal (truth at the fit's N) or lab (truth at 4x N, lab channels, "
                          "no rest stretch; the drawn noise replaces the rig's 2 um)")
     ap.add_argument("--drive", choices=["reset_hold", "inversion", "unipolar"], default="reset_hold")
+    ap.add_argument("--laws-outside", action="store_true",
+                    help="draw field laws among Eq. (21), an exponential and a power law (the last two outside the "
+                         "catalog's forms)")
     a = ap.parse_args(argv)
     out = Path(a.out)
     done = {}
@@ -150,7 +166,8 @@ def main(argv=None):
         for line in out.read_text().splitlines():
             r = json.loads(line)
             done[r["i"]] = r
-    cases = [{**draw(i, a.seed), "N": a.N, "rig": a.rig, "drive": a.drive} for i in range(a.n) if i not in done]
+    cases = [{**draw(i, a.seed, a.laws_outside), "N": a.N, "rig": a.rig, "drive": a.drive} for i in range(a.n)
+             if i not in done]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(a.workers) as ex, out.open("a") as fh:
         futs = {ex.submit(run_one, c): c for c in cases}
@@ -159,8 +176,12 @@ def main(argv=None):
             done[r["i"]] = r
             fh.write(json.dumps(r) + "\n")
             fh.flush()
-            print(f"[{k}/{len(cases)}, {time.perf_counter() - t0:.0f} s] {r['effect']}: named {r['named'] or 'nothing'}"
-                  f" ({'right' if r['right'] else 'WRONG'})", file=sys.stderr, flush=True)
+            form = f" ({r['truth']['outside']} law)" if "outside" in r["truth"] else ""
+            ho = f"held out {r['heldout_baseline'] * 1e6:.2f} -> {(r['heldout_improved'] or r['heldout_baseline']) * 1e6:.2f}" \
+                f" um, noise {r['noise'] * 1e6:.2f}"
+            print(f"[{k}/{len(cases)}, {time.perf_counter() - t0:.0f} s] {r['effect']}{form}: named "
+                  f"{r['named'] or 'nothing'} ({'right' if r['right'] else 'WRONG'}); {ho}; {r['wall_time']:.0f} s",
+                  file=sys.stderr, flush=True)
     print(summarize([done[i] for i in sorted(done) if i < a.n]))
 
 

@@ -65,7 +65,7 @@ def add_design_parser(subparsers):
     pd.add_argument("--out", metavar="DRIVE.toml", help="write the recommended drive as a protocol file")
     pd.add_argument("--plot", metavar="FILE.png", help="ripple and drift over frequency, the checks and the window")
     pd.add_argument("--quiet", action="store_true", help="no progress bar when a surrogate is fitted")
-    pd.add_argument("--json", action="store_true", help="print the design as one JSON object (last line)")
+    pd.add_argument("--json", action="store_true", help="print the design as one JSON object on stdout (the summary goes to stderr)")
     pd.set_defaults(func=design_command)
     return pd
 
@@ -103,7 +103,7 @@ def design_command(args) -> int:
         check_writable("--out", args.out, ("toml",))
     if args.plot:
         check_writable("--plot", args.plot, PLOT_FORMATS)
-    out = sys.stdout
+    out = sys.stderr if args.json else sys.stdout     # --json: stdout is the JSON alone
     p, s, note = params_and_surrogate(args, lambda text: print(f"dfa: {text}", file=sys.stderr))
     d = design_inversion(s, args.voltage, args.force, args.max_ripple, args.max_drift, args.horizon,
                          slew_rate=args.slew_rate, current_limit=args.current_limit, params=p)
@@ -150,8 +150,7 @@ def design_command(args) -> int:
                   f"{EDGE_PERIODS} periods over the horizon)", file=out)
         print(f"  wrote {args.plot}", file=out)
     if args.json:
-        print(json.dumps(json_safe({**d.to_dict(), "surrogate": note, "protocol": args.out if d.feasible else None})),
-              file=out)
+        print(json.dumps(json_safe({**d.to_dict(), "surrogate": note, "protocol": args.out if d.feasible else None})))
     return rc
 
 

@@ -29,7 +29,7 @@ def add_hold_parser(subparsers):
     add_model_flags(ph)
     ph.add_argument("--quiet", action="store_true", help="no progress bar when a surrogate is fitted")
     ph.add_argument("--plot", metavar="FILE.png", help="the three strokes and the loop's amplitude")
-    ph.add_argument("--json", action="store_true", help="print controller and metrics as one JSON object (last line)")
+    ph.add_argument("--json", action="store_true", help="print controller and metrics as one JSON object on stdout (the summary goes to stderr)")
     ph.set_defaults(func=cmd_hold)
     return ph
 
@@ -53,17 +53,18 @@ def cmd_hold(args) -> int:
         c = tune_hold_controller(s, args.stroke, args.force, frequency=args.frequency, dt_control=args.dt)
     except ValueError as exc:
         raise base.CLIError(str(exc)) from None
+    out = sys.stderr if args.json else sys.stdout     # --json: stdout is the JSON alone
     print(f"PI loop tuned on the {s.family} surrogate ({note}) at {args.stroke * 1e3:g} mm, {args.force:g} N: "
           f"kp {c.kp:.4g} V/m, ki {c.ki:.4g} V/(m s), feedforward {c.v_ff:.0f} V, inversion {c.frequency:g} Hz; "
-          f"phase margin {c.phase_margin:.0f} deg, crossover {c.gain_crossover:.3g} rad/s")
+          f"phase margin {c.phase_margin:.0f} deg, crossover {c.gain_crossover:.3g} rad/s", file=out)
     cmp = compare_hold(model, c, args.duration)
-    print(f"full model, {args.duration:g} s hold (deviation from the commanded stroke after 2 s):")
-    print(f"  {'scheme':16s} {'rms um':>9s} {'max um':>9s} {'drift um':>9s} {'mean |V|':>9s} {'P_hs mW':>9s}")
+    print(f"full model, {args.duration:g} s hold (deviation from the commanded stroke after 2 s):", file=out)
+    print(f"  {'scheme':16s} {'rms um':>9s} {'max um':>9s} {'drift um':>9s} {'mean |V|':>9s} {'P_hs mW':>9s}", file=out)
     for name, m in cmp["metrics"].items():
         print(f"  {name:16s} {m['rms_dev'] * 1e6:9.2f} {m['max_dev'] * 1e6:9.2f} {m['drift'] * 1e6:9.2f} "
-              f"{m['mean_abs_V']:9.0f} {m['hard_switched_power'] * 1e3:9.3g}")
+              f"{m['mean_abs_V']:9.0f} {m['hard_switched_power'] * 1e3:9.3g}", file=out)
     print("  (drift: stroke lost against the commanded stroke over the last inversion period, positive when lost; "
-          "P_hs: what a hard-switched source spends)")
+          "P_hs: what a hard-switched source spends)", file=out)
     if args.plot:
         _plot(cmp, args.plot)
         print(f"wrote {args.plot}", file=sys.stderr)

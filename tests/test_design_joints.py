@@ -25,7 +25,9 @@ def dfa(*args, check=True):
 
 
 def last_json(r):
-    return json.loads(r.stdout.strip().splitlines()[-1])
+    """--json: stdout is the JSON document alone (the summary goes to stderr), so it pipes
+    into jq or json.load."""
+    return json.loads(r.stdout)
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +56,8 @@ def test_design_names_its_power(designed):
     pw = out["power"]
     assert set(pw) == {"hard_switched_dissipation", "input"}
     assert pw["input"] == out["verified"]["input_power"] and 0 < pw["input"] < pw["hard_switched_dissipation"]
-    assert "dissipated by a hard-switched source" in r.stdout and "delivered to the actuator" in r.stdout
+    # the summary goes to stderr under --json (stdout is the JSON alone)
+    assert "dissipated by a hard-switched source" in r.stderr and "delivered to the actuator" in r.stderr
 
 
 def test_design_plot_is_written(designed):

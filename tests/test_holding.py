@@ -134,7 +134,7 @@ def test_fmu_cosimulation_matches_full_model(params, controller, tmp_path):
 
 
 def test_hold_command(capsys, tmp_path):
-    """`dfa hold`: tunes, compares on the full model, prints JSON last, writes the plot;
+    """`dfa hold`: tunes, compares on the full model, prints JSON alone on stdout, writes the plot;
     a stroke beyond the electrode is a clear error naming the flag."""
     from dfa_model import cli as base
     from reduced.hold_cli import add_hold_parser
@@ -144,7 +144,7 @@ def test_hold_command(capsys, tmp_path):
     args = ap.parse_args(["hold", "--preset", "vshape-table1", "--stroke", "0.8e-3", "--force", "5",
                           "--duration", "45", "--plot", str(png), "--json"])
     assert args.func(args) == 0
-    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    out = json.loads(capsys.readouterr().out)       # stdout is the JSON alone
     m = out["metrics"]
     assert set(m) == {"open-loop DC", "inversion", "closed loop"}
     assert m["closed loop"]["max_dev"] < BAND < m["open-loop DC"]["max_dev"]
