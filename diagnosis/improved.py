@@ -110,6 +110,10 @@ def improved_toml(D, dataset_name: str | None = None) -> str:
                 pars = entry_parameters(D, e, D.suggested)
                 head.append(f"  suggested physics {e.key}: " + ", ".join(
                     f"{k} = {_g(v['value'])} +- {v['stderr']:.2g}" for k, v in pars.items()) + " (not added)")
+    if getattr(D, "raised", None):
+        a, b = D.raised[0], D.raised[-1]
+        head.append(f"N raised from {a['N']} to {b['N_fine']} before the selection: the baseline's error "
+                    f"{a['error'] * 1e6:.3g} -> {b['error_fine'] * 1e6:.3g} um (the model's own resolution)")
     r = getattr(D, "resolution", None)
     if r and r.get("resolution_only"):
         head.append(f"N raised from {r['N']} to {r['N_fine']}: {', '.join(r['dropped'])} only took up the model's "

@@ -66,6 +66,7 @@ def to_json(D) -> dict:
         "unverified_suggestions": unverified_suggestions(D),
         "unexplained": unexplained(D),
         "resolution": D.resolution,
+        "resolution_first": D.raised,
         "headline": headline(D),
         "trends": D.trends,
         "candidates": D.rounds,
@@ -190,6 +191,11 @@ def conclusion(D) -> str:
         parts.append("no missing physics verified")
     else:
         parts.append("no missing physics found")
+    if D.raised:
+        a, b = D.raised[0], D.raised[-1]
+        parts.append(f"N raised from {a['N']} to {b['N_fine']} before the selection (the baseline's error "
+                     f"{a['error'] * 1e6:.3g} -> {b['error_fine'] * 1e6:.3g} um: the model's own resolution at "
+                     f"N = {a['N']}, not missing physics)")
     r = D.resolution
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "

@@ -99,3 +99,31 @@ def test_a_truth_law_outside_the_parameter_file(tmp_path):
         assert (made["truth_law"] or "").startswith("ExponentialResistivity" if lw else "")
     # above E6 the exponential law is below 2e12: the interface charges faster, the stroke falls away sooner
     assert abs(runs["exp"][-1] - runs["const"][-1]) > 5e-6
+
+
+def test_resolution_first_raises_N_while_the_finer_baseline_fits_better(monkeypatch):
+    """Before any selection, N is raised while the baseline leaves more than RAISE_FLOOR
+    noises and the finer baseline cuts its error below RAISE_GAIN (at most RAISE_MAX
+    doublings): on the lab rig (truth at 4x N) a coarse N = 21 model's own error, 11 um
+    against 1.5 um noise, was taken up by a spline law that was then named on a null
+    dataset. Fits stubbed: the rule's three stops."""
+    import importlib
+    from types import SimpleNamespace as NS
+    dg = importlib.import_module("diagnosis.diagnose")
+    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
+
+    def res(err, N):
+        return NS(heldout_rmse=err, train_rmse=err, sigma=1e-6, params=preset("vshape-table1").replace(N=N))
+
+    base = preset("vshape-table1").replace(N=21)
+    cases = [  # (errors of the successive finer baselines, expected final N)
+        ([5e-6, 3e-6], 81),            # two doublings, each better by > 20 %
+        ([9.5e-6], 21),                # the finer fits no better: N stays
+        ([1.2e-6], 41),                # one doubling reaches the noise floor: stop there
+    ]
+    for errs, N_end in cases:
+        fits = iter([res(e, 21) for e in errs])
+        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        b, f, steps = dg._resolve(None, base, None, res(11e-6, 21), None, None, lambda s: None)
+        assert b.N == N_end and len(steps) == {21: 0, 41: 1, 81: 2}[N_end]
+        assert [s["N_fine"] for s in steps] == [41, 81][:len(steps)]
