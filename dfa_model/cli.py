@@ -399,10 +399,10 @@ def main(argv=None):
     from .solver import SolverError
     from .waveforms import WaveformError
     argv = sys.argv[1:] if argv is None else list(argv)
-    # the plugins' commands (reduce, compare, design, diagnose) import SciPy and
-    # python-control: 0.35 s of a warm `dfa simulate`, which needs none of them
-    ap = build_parser(plugins=not (argv and argv[0] in BUILTIN))
     try:
+        # the plugins' commands (reduce, compare, design, diagnose) import SciPy and
+        # python-control: 0.35 s of a warm `dfa simulate`, which needs none of them
+        ap = build_parser(plugins=not (argv and argv[0] in BUILTIN))
         args = ap.parse_args(argv)
         if not getattr(args, "command", None):
             ap.print_help()
@@ -410,7 +410,9 @@ def main(argv=None):
                            "(dfa COMMAND --help for more)")
         if getattr(args, "dt", None) == 0:
             args.dt = None
-        with warnings.catch_warnings():
+        from . import interrupt
+        # Ctrl-C stops a compiled run within a step, and the pools at once (interrupt.py)
+        with interrupt.armed(), warnings.catch_warnings():
             warnings.simplefilter("always", PhysicsWarning)
             warnings.showwarning = lambda m, c, *a, **k: print(f"dfa: warning: {m}", file=sys.stderr)
             rc = args.func(args)

@@ -1,0 +1,160 @@
+"""Ctrl-C (SIGINT) while a compiled kernel runs.
+
+The integrator is one compiled call: a 1900 s run at 30 Hz is ten seconds in it, a long
+DC hold sampled finely most of that inside a single step's outputs. Python runs its
+SIGINT handler only between bytecodes, so Ctrl-C waited for the call's end, and with
+numba's just-in-time kernels (no compiled extension) the KeyboardInterrupt went off while
+numba boxed the call's results, which left a NULL in the returned tuple: a segmentation
+fault instead of an exit.
+
+`arm()` (the `dfa` command calls it; main thread, default SIGINT handler, POSIX) sets up:
+
+- `FLAG`, one int64 the integrator reads before every step and every dense output
+  (integrator.integrate's `interrupt`): it lies in a page of shared memory that is also
+  Python's signal wakeup fd, so the C-level signal handler writes the signal's number into
+  it the moment SIGINT arrives, while the kernel is still running; the kernel returns
+  with status INTERRUPTED within a step;
+- a SIGINT handler that raises KeyboardInterrupt as Python's own does, except inside a
+  kernel call (`with KERNEL:`), where it only notes the signal: the call returns and is
+  boxed undisturbed, and KeyboardInterrupt is raised when it has.
+
+Unarmed (a library caller, a thread, Windows, an event loop's wakeup fd in place) FLAG is
+a zero nobody writes and Ctrl-C acts as it did.
+"""
+from __future__ import annotations
+
+import mmap
+import os
+import signal
+import threading
+
+import numpy as np
+
+FLAG = np.zeros(1, dtype=np.int64)    # integrate's `interrupt` argument (read it at call time)
+_armed = False
+_fd = -1
+_map = None
+_depth = 0                            # kernel calls in progress (`with KERNEL:`)
+_pending = False                      # SIGINT arrived during one
+
+
+def arm() -> bool:
+    """Make SIGINT stop a running kernel (see the module's docstring). Returns whether it
+    is armed; False leaves everything as it was."""
+    global FLAG, _armed, _fd, _map
+    if _armed:
+        return True
+    if (os.name == "nt" or threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        return False
+    fd, mm = -1, None
+    try:
+        if hasattr(os, "memfd_create"):
+            fd = os.memfd_create("dfa-interrupt")
+        else:                                   # macOS: an unlinked temporary file
+            import tempfile
+            with tempfile.TemporaryFile() as f:
+                fd = os.dup(f.fileno())
+        os.ftruncate(fd, mmap.PAGESIZE)
+        mm = mmap.mmap(fd, mmap.PAGESIZE)
+        os.set_blocking(fd, False)              # set_wakeup_fd requires it
+        previous = signal.set_wakeup_fd(fd, warn_on_full_buffer=False)
+    except (OSError, ValueError, AttributeError):
+        if mm is not None:
+            mm.close()
+        if fd >= 0:
+            os.close(fd)
+        return False
+    if previous != -1:                          # someone's event loop: theirs stays
+        signal.set_wakeup_fd(previous)
+        mm.close()
+        os.close(fd)
+        return False
+    _fd, _map = fd, mm
+    FLAG = np.ndarray((1,), dtype=np.int64, buffer=mm)
+    signal.signal(signal.SIGINT, _on_sigint)
+    _armed = True
+    return True
+
+
+def disarm() -> None:
+    """Undo `arm()`: Python's SIGINT handler, no wakeup fd, FLAG an unwritten zero."""
+    global FLAG, _armed, _fd, _map, _pending
+    if not _armed:
+        return
+    if signal.getsignal(signal.SIGINT) is _on_sigint:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    previous = signal.set_wakeup_fd(-1)
+    if previous not in (_fd, -1):               # replaced meanwhile: not ours to remove
+        signal.set_wakeup_fd(previous)
+    FLAG, _armed, _pending = np.zeros(1, dtype=np.int64), False, False
+    try:
+        _map.close()
+    except BufferError:                         # an array on it is still alive: its collection closes it
+        pass
+    os.close(_fd)
+    _fd, _map = -1, None
+
+
+class armed:
+    """`with armed():` arm() for the block (if it can), disarm() after it if it did."""
+
+    def __enter__(self):
+        self.did = not _armed and arm()
+        return self
+
+    def __exit__(self, *exc):
+        if self.did:
+            disarm()
+        return False
+
+
+def _on_sigint(signum, frame):
+    global _pending
+    if _depth:
+        _pending = True       # the kernel has seen FLAG; KeyboardInterrupt once it has returned
+        return
+    signal.default_int_handler(signum, frame)
+
+
+def _reset() -> None:
+    """Clear FLAG (a SIGINT handled outside a kernel, or another signal's wakeup byte):
+    the next wakeup byte lands in it again."""
+    FLAG[0] = 0
+    os.lseek(_fd, 0, os.SEEK_SET)
+
+
+class _KernelCall:
+    """`with KERNEL:` around a compiled call: a SIGINT during it is raised as
+    KeyboardInterrupt when the call has returned (see the module's docstring)."""
+
+    def __enter__(self):
+        global _depth
+        if _armed and FLAG[0] and not _depth:
+            _reset()
+        _depth += 1
+
+    def __exit__(self, *exc):
+        global _depth, _pending
+        _depth -= 1
+        if _pending and not _depth:
+            _pending = False
+            _reset()
+            raise KeyboardInterrupt
+        return False
+
+
+KERNEL = _KernelCall()
+
+
+def rerun() -> bool:
+    """After a kernel call that returned INTERRUPTED without raising: True, with FLAG
+    cleared, when another signal with a Python handler wrote the wakeup fd (the run is to
+    be run again); KeyboardInterrupt when the byte was SIGINT's."""
+    if not (_armed and FLAG[0]):
+        return False
+    sigint = signal.SIGINT in int(FLAG[0]).to_bytes(8, "little")
+    _reset()
+    if sigint:
+        raise KeyboardInterrupt
+    return True
