@@ -1,4 +1,4 @@
-"""Ctrl-C (SIGINT) while a compiled kernel runs.
+"""Ctrl-C (SIGINT) while a compiled kernel runs, and in the process pools.
 
 The integrator is one compiled call: a 1900 s run at 30 Hz is ten seconds in it, a long
 DC hold sampled finely most of that inside a single step's outputs. Python runs its
@@ -20,6 +20,12 @@ fault instead of an exit.
 
 Unarmed (a library caller, a thread, Windows, an event loop's wakeup fd in place) FLAG is
 a zero nobody writes and Ctrl-C acts as it did.
+
+Process pools: `local_pool` starts workers that ignore SIGINT (a terminal's Ctrl-C reaches
+the whole process group: each worker would print a traceback, and a worker in a kernel
+would run on) and drop the parent's flag; on the way out of an exception (Ctrl-C included)
+`stop_pool` cancels the queued work and ends the workers at once instead of waiting for
+their runs.
 """
 from __future__ import annotations
 
@@ -27,6 +33,7 @@ import mmap
 import os
 import signal
 import threading
+import time
 
 import numpy as np
 
@@ -158,3 +165,56 @@ def rerun() -> bool:
     if sigint:
         raise KeyboardInterrupt
     return True
+
+
+# ------------------------------------------------------------------ process pools
+def _worker_init(initializer=None, initargs=()):
+    global FLAG, _armed, _depth, _pending
+    signal.signal(signal.SIGINT, signal.SIG_IGN)   # the parent stops the pool
+    if threading.current_thread() is threading.main_thread():
+        signal.set_wakeup_fd(-1)
+    # a forked worker shares the parent's page: its kernels must not stop on the parent's Ctrl-C
+    FLAG, _armed, _depth, _pending = np.zeros(1, dtype=np.int64), False, 0, False
+    if initializer is not None:
+        initializer(*initargs)
+
+
+def local_pool(max_workers=None, initializer=None, initargs=()):
+    """A ProcessPoolExecutor whose workers ignore SIGINT (then run `initializer`)."""
+    from concurrent.futures import ProcessPoolExecutor
+    return ProcessPoolExecutor(max_workers=max_workers or os.cpu_count() or 1, initializer=_worker_init,
+                               initargs=(initializer, initargs))
+
+
+def stop_pool(executor, grace: float = 1.0) -> None:
+    """End a local ProcessPoolExecutor now: cancel what is queued, terminate the workers
+    (SIGTERM, SIGKILL after `grace` seconds), without waiting for the runs in progress."""
+    procs = list((getattr(executor, "_processes", None) or {}).values())
+    executor.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    deadline = time.monotonic() + grace
+    for p in procs:
+        p.join(max(0.0, deadline - time.monotonic()))
+        if p.is_alive():
+            p.kill()
+            p.join(grace)
+
+
+class owned_pool:
+    """`with owned_pool(executor) as ex:` shuts `executor` down on the way out: waiting
+    for it normally, at once (stop_pool) on an exception, KeyboardInterrupt included."""
+
+    def __init__(self, executor):
+        self.executor = executor
+
+    def __enter__(self):
+        return self.executor
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None:
+            self.executor.shutdown()
+        else:
+            stop_pool(self.executor)
+        return False

@@ -35,6 +35,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+from dfa_model.interrupt import stop_pool
+
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .fit import fit, local_executor
 from .locate import condition_trends, locate
@@ -272,6 +274,11 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
                          final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
                          suggested=suggested)
+    except BaseException:
+        if own:                  # Ctrl-C or an error: the workers' runs are not waited for
+            stop_pool(executor)
+            own = False
+        raise
     finally:
         if own:
             executor.shutdown()
