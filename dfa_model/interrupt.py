@@ -16,16 +16,23 @@ fault instead of an exit.
   with status INTERRUPTED within a step;
 - a SIGINT handler that raises KeyboardInterrupt as Python's own does, except inside a
   kernel call (`with KERNEL:`), where it only notes the signal: the call returns and is
-  boxed undisturbed, and KeyboardInterrupt is raised when it has.
+  boxed undisturbed, and KeyboardInterrupt is raised when it has. It also notes that a
+  SIGINT came (`received()`), for an exception that a KeyboardInterrupt turned into
+  another (a C extension's import fails with ImportError).
 
 Unarmed (a library caller, a thread, Windows, an event loop's wakeup fd in place) FLAG is
 a zero nobody writes and Ctrl-C acts as it did.
 
-Process pools: `local_pool` starts workers that ignore SIGINT (a terminal's Ctrl-C reaches
-the whole process group: each worker would print a traceback, and a worker in a kernel
-would run on) and drop the parent's flag; on the way out of an exception (Ctrl-C included)
-`stop_pool` cancels the queued work and ends the workers at once instead of waiting for
-their runs.
+Process pools (`local_pool`): a worker arms its own flag, and after a SIGINT its kernel
+calls raise KeyboardInterrupt (the task's exception: the run in progress and those queued
+for it end within a step) while the worker itself waits for the pool's shutdown, so a
+terminal's Ctrl-C, which reaches the whole process group, prints no worker tracebacks and
+breaks no pool (on main a worker waiting for work died of it, and `dfa diagnose` hung
+in the pool's shutdown). The workers are forked with SIGINT held back (a signal handled
+in Python's at-fork hooks is swallowed: the command ran on). On the way out of an
+exception (Ctrl-C included) `stop_pool` drops the queued work and sends the workers SIGINT:
+their runs end within a step and the pool shuts down in the ordinary way, at once; a
+worker that does not end within a grace time is terminated.
 """
 from __future__ import annotations
 
@@ -43,12 +50,14 @@ _fd = -1
 _map = None
 _depth = 0                            # kernel calls in progress (`with KERNEL:`)
 _pending = False                      # SIGINT arrived during one
+_received = False                     # SIGINT arrived (armed)
+_worker = False                       # a pool's worker: SIGINT outside a kernel call is ignored
 
 
 def arm() -> bool:
     """Make SIGINT stop a running kernel (see the module's docstring). Returns whether it
     is armed; False leaves everything as it was."""
-    global FLAG, _armed, _fd, _map
+    global FLAG, _armed, _fd, _map, _received
     if _armed:
         return True
     if (os.name == "nt" or threading.current_thread() is not threading.main_thread()
@@ -77,7 +86,7 @@ def arm() -> bool:
         mm.close()
         os.close(fd)
         return False
-    _fd, _map = fd, mm
+    _fd, _map, _received = fd, mm, False
     FLAG = np.ndarray((1,), dtype=np.int64, buffer=mm)
     signal.signal(signal.SIGINT, _on_sigint)
     _armed = True
@@ -116,10 +125,19 @@ class armed:
         return False
 
 
+def received() -> bool:
+    """Whether a SIGINT came since arm()."""
+    return _received
+
+
 def _on_sigint(signum, frame):
-    global _pending
+    global _pending, _received
+    _received = True
     if _depth:
         _pending = True       # the kernel has seen FLAG; KeyboardInterrupt once it has returned
+        return
+    if _worker:               # between runs, or before the kernel: every kernel call stops from now on
+        _pending = True
         return
     signal.default_int_handler(signum, frame)
 
@@ -137,6 +155,8 @@ class _KernelCall:
 
     def __enter__(self):
         global _depth
+        if _worker and _pending:  # a worker told to stop: the runs queued for it end here
+            raise KeyboardInterrupt
         if _armed and FLAG[0] and not _depth:
             _reset()
         _depth += 1
@@ -145,7 +165,7 @@ class _KernelCall:
         global _depth, _pending
         _depth -= 1
         if _pending and not _depth:
-            _pending = False
+            _pending = _worker
             _reset()
             raise KeyboardInterrupt
         return False
@@ -169,37 +189,82 @@ def rerun() -> bool:
 
 # ------------------------------------------------------------------ process pools
 def _worker_init(initializer=None, initargs=()):
-    global FLAG, _armed, _depth, _pending
-    signal.signal(signal.SIGINT, signal.SIG_IGN)   # the parent stops the pool
-    if threading.current_thread() is threading.main_thread():
+    global FLAG, _armed, _fd, _map, _depth, _pending, _received, _worker
+    # a forked worker has the parent's handler, wakeup fd and page: its own instead
+    if _armed:
         signal.set_wakeup_fd(-1)
-    # a forked worker shares the parent's page: its kernels must not stop on the parent's Ctrl-C
-    FLAG, _armed, _depth, _pending = np.zeros(1, dtype=np.int64), False, 0, False
+        os.close(_fd)
+        FLAG, _armed, _fd, _map, _depth, _pending = np.zeros(1, dtype=np.int64), False, -1, None, 0, False
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    _worker = True
+    if not arm():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)    # nothing to stop a run with: the parent terminates
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})   # held back while the parent forked
     if initializer is not None:
         initializer(*initargs)
 
 
 def local_pool(max_workers=None, initializer=None, initargs=()):
-    """A ProcessPoolExecutor whose workers ignore SIGINT (then run `initializer`)."""
+    """A ProcessPoolExecutor whose workers take SIGINT as the end of the run in progress
+    only (then run `initializer`), started now."""
     from concurrent.futures import ProcessPoolExecutor
-    return ProcessPoolExecutor(max_workers=max_workers or os.cpu_count() or 1, initializer=_worker_init,
-                               initargs=(initializer, initargs))
+    ex = ProcessPoolExecutor(max_workers=max_workers or os.cpu_count() or 1, initializer=_worker_init,
+                             initargs=(initializer, initargs))
+    # with the fork method the first submission forks every worker; the at-fork hooks
+    # (logging's locks) are Python code, where a KeyboardInterrupt is swallowed: SIGINT
+    # waits until they are done
+    held = threading.current_thread() is threading.main_thread()
+    if held:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        ex.submit(int)
+    finally:
+        if held:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    return ex
 
 
-def stop_pool(executor, grace: float = 1.0) -> None:
-    """End a local ProcessPoolExecutor now: cancel what is queued, terminate the workers
-    (SIGTERM, SIGKILL after `grace` seconds), without waiting for the runs in progress."""
+def stop_pool(executor, grace: float = 2.0) -> None:
+    """End a local pool (local_pool) now: cancel what is queued, send the workers SIGINT
+    (their runs end within a step), and shut down; a worker still running after `grace`
+    seconds is terminated."""
     procs = list((getattr(executor, "_processes", None) or {}).values())
+    manager = getattr(executor, "_executor_manager_thread", None)
+    results = getattr(executor, "_result_queue", None)
     executor.shutdown(wait=False, cancel_futures=True)
     for p in procs:
-        if p.is_alive():
-            p.terminate()
+        try:
+            os.kill(p.pid, signal.SIGINT)
+        except (ProcessLookupError, TypeError):
+            pass
     deadline = time.monotonic() + grace
     for p in procs:
         p.join(max(0.0, deadline - time.monotonic()))
-        if p.is_alive():
-            p.kill()
+    if manager is not None:
+        manager.join(max(0.0, deadline - time.monotonic()))
+    if not any(p.is_alive() for p in procs) and (manager is None or not manager.is_alive()):
+        return
+    # stuck: terminate. The executor's thread then takes the pool for broken, and may fail
+    # on a future cancelled meanwhile (InvalidStateError): nothing to report for a pool
+    # being given up
+    hook = threading.excepthook
+    threading.excepthook = lambda a: None if a.thread is manager else hook(a)
+    try:
+        for p in procs:
+            if p.is_alive():
+                p.kill()
             p.join(grace)
+        # a worker ended while sending its result leaves half a message in the pipe: the
+        # thread would wait for the rest for ever (and the interpreter's exit with it);
+        # with the parent's write end closed too it reads end-of-file instead
+        try:
+            results._writer.close()
+        except (AttributeError, OSError):
+            pass
+        if manager is not None:
+            manager.join(grace)
+    finally:
+        threading.excepthook = hook
 
 
 class owned_pool:
