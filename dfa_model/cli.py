@@ -396,9 +396,15 @@ def _plugins(sub) -> None:
 
 
 def main(argv=None):
+    from . import interrupt
+    # Ctrl-C stops a compiled run within a step, and the pools at once (interrupt.py)
+    with interrupt.armed():
+        return _main(sys.argv[1:] if argv is None else list(argv), interrupt)
+
+
+def _main(argv, interrupt):
     from .solver import SolverError
     from .waveforms import WaveformError
-    argv = sys.argv[1:] if argv is None else list(argv)
     try:
         # the plugins' commands (reduce, compare, design, diagnose) import SciPy and
         # python-control: 0.35 s of a warm `dfa simulate`, which needs none of them
@@ -410,9 +416,7 @@ def main(argv=None):
                            "(dfa COMMAND --help for more)")
         if getattr(args, "dt", None) == 0:
             args.dt = None
-        from . import interrupt
-        # Ctrl-C stops a compiled run within a step, and the pools at once (interrupt.py)
-        with interrupt.armed(), warnings.catch_warnings():
+        with warnings.catch_warnings():
             warnings.simplefilter("always", PhysicsWarning)
             warnings.showwarning = lambda m, c, *a, **k: print(f"dfa: warning: {m}", file=sys.stderr)
             rc = args.func(args)
@@ -431,6 +435,9 @@ def main(argv=None):
         print("dfa: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:          # a bug: one line for users, the traceback on request
+        if interrupt.received():      # Ctrl-C turned into another exception (a C extension's import)
+            print("dfa: interrupted", file=sys.stderr)
+            return 130
         if os.environ.get("DFA_DEBUG"):
             raise
         print(f"dfa: internal error: {type(exc).__name__}: {exc} (a bug: please report it; DFA_DEBUG=1 shows "
