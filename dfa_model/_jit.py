@@ -33,7 +33,7 @@ AOT_MODULE = "_kernels_aot"
 # n None, T2/T6 tuples of floats, S the surrogate integrator's result. aot.py turns them into
 # numba signatures.
 EXPORTS = {
-    "integrator.integrate": ("I1 F1 F1 i F1 F1 F1 F1 F1 F1 F1 f f F1 F1 b b i F1 W F1 b b i", "R"),
+    "integrator.integrate": ("I1 F1 F1 i F1 F1 F1 F1 F1 F1 F1 f f F1 F1 b b i F1 W F1 b b i I1", "R"),
     "kernels.rhs": ("I1 F1 F1 i F1 f f F1 F1 F1 F1 F2 F1", "f"),
     "kernels.diagnostics": ("I1 F1 F1 i F1 f f f F1 F1 F1 F1 F1 F1", "n"),
     "equations.rho_of": ("i F1 f", "f"),

@@ -403,13 +403,19 @@ def _plugins(sub) -> None:
 
 
 def main(argv=None):
+    from . import interrupt
+    # Ctrl-C stops a compiled run within a step, and the pools at once (interrupt.py)
+    with interrupt.armed():
+        return _main(sys.argv[1:] if argv is None else list(argv), interrupt)
+
+
+def _main(argv, interrupt):
     from .solver import SolverError
     from .waveforms import WaveformError
-    argv = sys.argv[1:] if argv is None else list(argv)
-    # the plugins' commands (reduce, compare, design, diagnose) import SciPy and
-    # python-control: 0.35 s of a warm `dfa simulate`, which needs none of them
-    ap = build_parser(plugins=not (argv and argv[0] in BUILTIN))
     try:
+        # the plugins' commands (reduce, compare, design, diagnose) import SciPy and
+        # python-control: 0.35 s of a warm `dfa simulate`, which needs none of them
+        ap = build_parser(plugins=not (argv and argv[0] in BUILTIN))
         args = ap.parse_args(argv)
         if not getattr(args, "command", None):
             ap.print_help()
@@ -436,6 +442,9 @@ def main(argv=None):
         print("dfa: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:          # a bug: one line for users, the traceback on request
+        if interrupt.received():      # Ctrl-C turned into another exception (a C extension's import)
+            print("dfa: interrupted", file=sys.stderr)
+            return 130
         if os.environ.get("DFA_DEBUG"):
             raise
         print(f"dfa: internal error: {type(exc).__name__}: {exc} (a bug: please report it; DFA_DEBUG=1 shows "

@@ -37,7 +37,7 @@ E2 = 2.0 * DG / 3.0
 NEWTON_TOL = 0.05
 MAXIT = 8
 
-OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE, OUTPUT_FULL = 0, 1, 2, 3, 4
+OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE, OUTPUT_FULL, INTERRUPTED = 0, 1, 2, 3, 4, 5
 # carried controller state `ist` (see make_workspace): Jacobian valid, step of the stored
 # factorization, Newton contraction estimate, next step size, stuck index, f0 valid, the
 # load at the end of the last call (its voltage is the caller's V_prev), and the stop the
@@ -215,7 +215,7 @@ def _event_retry(t, h, f0, f1, ev_t, wa, wb, prev):
 @njit(cache=True)
 def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_Fs, V_prev,
               rtol, scale, t_out, want_energy, store_states, max_steps, xc, ws, ist, one_step, want_trace,
-              max_rows):
+              max_rows, interrupt):
     """Integrate from seg_t[0] to seg_t[-1]. Records every accepted step, or the times
     t_out if given (dense output, _dense_record). Returns (rec, states, stats, y_end,
     trace); with want_trace, trace holds the stroke of every accepted step as rows
@@ -241,7 +241,12 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     in place. A breakpoint where neither input jumps keeps f and the Newton matrix.
     one_step: return after the first accepted step, recording its start, stage and end
     (a stepping caller interpolates its communication points there, see
-    dfa_model.stepper)."""
+    dfa_model.stepper).
+
+    interrupt: one int64, the caller's interrupt flag (dfa_model.interrupt), read before
+    every step and every dense output: once it is nonzero the call returns with status
+    INTERRUPTED and empty records (the run is abandoned). Never written here; the zero of a
+    caller that does not interrupt costs a load per step."""
     n = y0.shape[0]
     nb = cfg[C_NB]
     nbord = cfg[C_NBORD]
@@ -403,6 +408,9 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 h = tb - t
             if nsteps + nrej >= max_steps:
                 status = MAX_STEPS
+                break
+            if interrupt[0] != 0:
+                status = INTERRUPTED
                 break
             if nrec >= max_rows and not grid:
                 status = OUTPUT_FULL
@@ -600,6 +608,9 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 nrec += 3
             if grid:
                 while kout < t_out.shape[0] and t_out[kout] <= t + h * (1.0 + 1e-12):
+                    if interrupt[0] != 0:      # one step can hold many outputs (a long DC hold)
+                        status = INTERRUPTED
+                        break
                     to = t_out[kout]
                     s = min(1.0, max(0.0, (to - t) / h))
                     for i in range(NPOW):
@@ -658,6 +669,9 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     ist[I_GHOLD] = g_hold
     ist[I_HJUMP] = h_jump
     ist[I_AFTERJ] = 1.0 if after_jump else 0.0
+    if status == INTERRUPTED:     # abandoned: no copies of what was recorded (a long run's are large)
+        nrec = 0
+        ntr = 0
     stats = np.array([nsteps, nrej, nfev, njac, status, t], dtype=np.float64)
     return (rec[:nrec].copy(), states[:nrec].copy() if store_states else states[:0].copy(), stats, y,
             trace[:ntr].copy())

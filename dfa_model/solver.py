@@ -7,11 +7,11 @@ import warnings
 
 import numpy as np
 
-from . import dielectrics, limits
+from . import dielectrics, interrupt, limits
 from ._jit import prepare
 from .dielectrics import PhysicsWarning
 from .equations import K, NREC
-from .integrator import MAX_STEPS, NONFINITE, OK, OUTPUT_FULL, STEP_UNDERFLOW, integrate
+from .integrator import INTERRUPTED, MAX_STEPS, NONFINITE, OK, OUTPUT_FULL, STEP_UNDERFLOW, integrate
 from .model import DFAModel
 from .parameters import ParameterError, Parameters, check_value
 from .results import Result
@@ -97,14 +97,21 @@ def simulate(params, protocol, load=None, duration=None, *, t_eval=None, energy=
     scale = model.scales(protocol.amplitude, energy)
     h0 = min(1e-6, T / 100)
     xc = model.force_jumps()
-    ws, ist = model.workspace(h0)
-    args = (model.cfg, model.geo, mat, model.law.law_id, model.law.params, y, t, V0, Vs, F0, Fs, float(V_before), rtol,
-            scale, t_out, bool(energy), bool(charges), max_steps, xc, ws, ist, False, True,
-            _max_rows(model.n if charges else 0))
-    prepare(integrate, *args)     # numba's compilation or cache load (if not compiled ahead): not the run's time
-    started = time.perf_counter()
-    rec, states, stats, y_end, trace = integrate(*args)
-    wall = time.perf_counter() - started
+    while True:
+        ws, ist = model.workspace(h0)
+        args = (model.cfg, model.geo, mat, model.law.law_id, model.law.params, y, t, V0, Vs, F0, Fs, float(V_before),
+                rtol, scale, t_out, bool(energy), bool(charges), max_steps, xc, ws, ist, False, True,
+                _max_rows(model.n if charges else 0), interrupt.FLAG)
+        prepare(integrate, *args)     # numba's compilation or cache load (if not compiled ahead): not the run's time
+        # Ctrl-C stops the kernel within a step and raises KeyboardInterrupt here (interrupt.py)
+        with interrupt.KERNEL:
+            started = time.perf_counter()
+            rec, states, stats, y_end, trace = integrate(*args)
+            wall = time.perf_counter() - started
+        if int(stats[4]) != INTERRUPTED:
+            break
+        if not interrupt.rerun():     # another signal's wakeup: run again
+            raise KeyboardInterrupt
     result = Result(model, protocol, load, rec, states if charges else None, stats, wall, y_end, energy=energy,
                     y0=y, V_before=float(V_before), trace=trace)
     result.started = started      # time.perf_counter() when the run began (dfa simulate's startup_time)

@@ -19,6 +19,9 @@ from .model import DFAModel
 from .parameters import Parameters
 from .solver import _STATUS, SolverError, check_mechanics, zip_force_per_volt2
 
+NO_INTERRUPT = np.zeros(1, dtype=np.int64)   # integrate's interrupt flag: a step is short, never stopped
+
+
 class InputRejected(ValueError):
     """A step refused before anything changed (a bad step size or input, or mechanics
     too fast to resolve at this voltage): the stepper can go on with other inputs.
@@ -158,7 +161,7 @@ class Stepper:
         rec, _, stats, y_end, _ = integrate(
             m.cfg, m.geo, m.mat, m.law.law_id, m.law.params, self.y, seg_t, np.array([V]), np.zeros(1),
             np.array([F]), np.zeros(1), self.V_sol, self.rtol, self._scale, t_out, False, False, self.max_steps,
-            self._xc, self._ws, self._ist, one_step, False, 1 << 40)
+            self._xc, self._ws, self._ist, one_step, False, 1 << 40, NO_INTERRUPT)
         if int(stats[4]) != OK:
             raise SolverError(f"step: stopped at t = {stats[5]:.9g} s on the way from {seg_t[0]:.9g} s to "
                               f"{seg_t[-1]:.9g} s because {_STATUS[int(stats[4])]}; restore a saved state or reset")

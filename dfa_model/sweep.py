@@ -14,14 +14,15 @@ from __future__ import annotations
 
 import csv
 import itertools
-import os
 import time
 import traceback
 import warnings
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 from .fileio import write_atomic
+from .interrupt import local_pool, owned_pool
 from .parameters import SPEC, Parameters, coerce
 from .waveforms import build_protocol
 
@@ -112,26 +113,29 @@ def run(cases, executor=None, max_workers=None, progress=True, fn=run_case, desc
     surrogate fitting uses it to bring back whole stroke records."""
     own = executor is None
     if own:
-        executor = ProcessPoolExecutor(max_workers=max_workers or os.cpu_count() or 1)
-    try:
+        executor = local_pool(max_workers)
+    # an executor of our own ends with the call; on Ctrl-C (or an error) at once (stop_pool)
+    with owned_pool(executor) if own else nullcontext():
         futures = {executor.submit(fn, c): i for i, c in enumerate(cases)}
         rows = [None] * len(cases)
         it = as_completed(futures)
         if progress:
             from tqdm import tqdm
             it = tqdm(it, total=len(futures), desc=desc, unit="run")
-        for fut in it:
-            i = futures[fut]
-            try:
-                rows[i] = fut.result()
-            except Exception as exc:   # the worker itself died (e.g. killed): say which case
-                rows[i] = {"label": getattr(cases[i], "label", str(i)), **getattr(cases[i], "varied", {}),
-                           "status": "error",
-                           "error": f"worker failed: {type(exc).__name__}: {exc}"}
+        try:
+            for fut in it:
+                i = futures[fut]
+                try:
+                    rows[i] = fut.result()
+                except Exception as exc:   # the worker itself died (e.g. killed): say which case
+                    rows[i] = {"label": getattr(cases[i], "label", str(i)), **getattr(cases[i], "varied", {}),
+                               "status": "error",
+                               "error": f"worker failed: {type(exc).__name__}: {exc}"}
+        except BaseException:
+            for fut in futures:        # a caller's executor (Dask): drop what has not started
+                fut.cancel()
+            raise
         return rows
-    finally:
-        if own:
-            executor.shutdown()
 
 
 def write_csv(rows, path) -> None:

@@ -1,8 +1,11 @@
 """dfa diagnose DATASET --out DIR (registered under the entry-point group 'dfa.commands')."""
 from __future__ import annotations
 
+import contextlib
+import shutil
 import sys
 import time
+from pathlib import Path
 
 
 def register(sub) -> None:
@@ -18,19 +21,32 @@ def register(sub) -> None:
 
 
 def cmd_diagnose(args) -> int:
-    from dfa_model.fileio import check_writable
     from dfa_model.recordings import read_dataset
+    ds = read_dataset(args.dataset)          # a bad dataset fails before anything is created
+    out = Path(args.out)
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"--out: cannot create folder '{args.out}': {exc.strerror}") from None
+    try:
+        return _diagnose(args, ds, out)
+    except BaseException:
+        # Ctrl-C or a failure: a folder this run created goes again; in one that was there,
+        # report.json (written last, removed first) tells a complete report
+        if created:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+
+
+def _diagnose(args, ds, out) -> int:
+    from dfa_model.fileio import check_writable
+    from dfa_model.interrupt import owned_pool
 
     from .diagnose import diagnose
     from .fit import local_executor
     from .report import write
-    from pathlib import Path
-    ds = read_dataset(args.dataset)          # a bad dataset fails before anything is created
-    try:
-        Path(args.out).mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"--out: cannot create folder '{args.out}': {exc.strerror}") from None
-    check_writable("--out", Path(args.out) / "report.json")
+    check_writable("--out", out / "report.json")
     t0 = time.perf_counter()
     say = None if args.quiet else (lambda s: print(f"[{time.perf_counter() - t0:6.1f} s] {s}", file=sys.stderr,
                                                    flush=True))
@@ -40,11 +56,8 @@ def cmd_diagnose(args) -> int:
         executor = client.get_executor()
     else:
         executor = local_executor(args.workers)
-    try:
+    with owned_pool(executor) if not args.scheduler else contextlib.nullcontext():
         D = diagnose(ds, executor=executor, progress=say)
-    finally:
-        if not args.scheduler:
-            executor.shutdown()
     report = write(D, args.out)
     print(f"{report['conclusion']}; baseline held-out RMSE "
           f"{_um(D.baseline.heldout_rmse)}, improved {_um(D.final.heldout_rmse) if D.improved else '-'}; "

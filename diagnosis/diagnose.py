@@ -35,6 +35,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+from dfa_model.interrupt import stop_pool
+
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .fit import fit, local_executor
 from .locate import condition_trends, locate
@@ -290,6 +292,11 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                          final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
                          raised=raised,
                          suggested=suggested)
+    except BaseException:
+        if own:                  # Ctrl-C or an error: the workers' runs are not waited for
+            stop_pool(executor)
+            own = False
+        raise
     finally:
         if own:
             executor.shutdown()

@@ -35,7 +35,6 @@ import math
 import os
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,6 +42,7 @@ from scipy.optimize import least_squares
 from scipy.sparse import csr_matrix
 from threadpoolctl import threadpool_limits
 
+from dfa_model.interrupt import local_pool
 from dfa_model.parameters import Parameters
 from dfa_model.synthetic import scaled_resistivity
 
@@ -175,7 +175,9 @@ def one_blas_thread():
 
 
 def local_executor(workers=None):
-    return ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, initializer=one_blas_thread)
+    """Local worker processes (one BLAS thread each, Ctrl-C left to the parent: stop it
+    with dfa_model.interrupt.stop_pool, or owned_pool)."""
+    return local_pool(workers, initializer=one_blas_thread)
 
 
 @dataclass

@@ -22,10 +22,12 @@ prints the table for any N and seeds.
 """
 from __future__ import annotations
 
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from dfa_model import preset
+from dfa_model.interrupt import owned_pool
 from dfa_model.recordings import read_dataset
 from dfa_model.synthetic import Measurement, generate_dataset
 
@@ -108,9 +110,6 @@ def run(name: str, folder, N: int = 21, seed: int = 21, executor=None, progress=
                      seed=seed, manifest=folder / "manifest.json", pretrigger=r["pretrigger"], drive=kind)
     own = executor is None
     ex = local_executor(2) if own else executor
-    try:
+    with owned_pool(ex) if own else nullcontext():
         D = diagnose(read_dataset(folder / "data"), executor=ex, progress=progress)
-    finally:
-        if own:
-            ex.shutdown()
     return D, write_report(D, folder / "out"), truth

@@ -537,11 +537,13 @@ def write(D, out) -> dict:
     from .improved import write_improved, write_protocols
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    # report.json is written last: present, the whole report is (an interrupted write, or
+    # one that failed, leaves none, and no earlier run's beside this one's files)
+    (out / "report.json").unlink(missing_ok=True)
     report = to_json(D)
     # the improved model as a parameter file, and each recording's drive as a protocol file
     report["improved_params"] = write_improved(D, out)
     report["protocols"] = write_protocols(D, out)
-    write_text_atomic(out / "report.json", json.dumps(report, indent=1))
     plots = {}
     plot_residuals(D, out / "residuals.png")
     plots["residuals"] = "residuals.png"
@@ -550,4 +552,5 @@ def write(D, out) -> dict:
     if plot_terms(D, out / "fitted_terms.png"):
         plots["fitted terms"] = "fitted_terms.png"
     write_text_atomic(out / "report.md", to_markdown(D, report, plots))
+    write_text_atomic(out / "report.json", json.dumps(report, indent=1))
     return report

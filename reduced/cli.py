@@ -5,6 +5,7 @@ They plug into the `dfa` command through the entry-point group `dfa.commands`
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import sys
@@ -47,13 +48,12 @@ def cmd_reduce(args) -> int:
     executor = base._dask_executor(args.scheduler) if args.scheduler else None
     own = None
     if executor is None and args.workers:
-        from concurrent.futures import ProcessPoolExecutor
-        executor = own = ProcessPoolExecutor(max_workers=args.workers)
-    try:
+        from dfa_model.interrupt import local_pool
+        executor = own = local_pool(args.workers)
+    # an executor left open ends the process with a traceback; on Ctrl-C it is stopped at once
+    from dfa_model.interrupt import owned_pool
+    with owned_pool(own) if own is not None else contextlib.nullcontext():
         s = fitting.fit(p, family=args.family, executor=executor, progress=not args.quiet)
-    finally:
-        if own is not None:      # an executor left open ends the process with a traceback
-            own.shutdown(wait=True, cancel_futures=True)
     s.save(args.out)
     rows = s.info.get("heldout", [])
     print(f"{s.family} surrogate, {s.n_states} states {s.state_names}; held-out conditions:", file=sys.stderr)
