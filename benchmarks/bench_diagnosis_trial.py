@@ -68,18 +68,6 @@ def draw(i: int, seed: int, laws_outside: bool = False) -> dict:
             "seed": int(rng.integers(1 << 30))}
 
 
-class InProcess:
-    """An executor that runs the model in the calling process (the trial already runs one
-    diagnosis per core)."""
-
-    @staticmethod
-    def map(fn, jobs):
-        return map(fn, jobs)
-
-    def shutdown(self, *a, **k):
-        pass
-
-
 def run_one(case: dict) -> dict:
     import warnings
     warnings.simplefilter("ignore")
@@ -87,6 +75,7 @@ def run_one(case: dict) -> dict:
     from dfa_model import preset
     from dfa_model.recordings import read_dataset
     from dfa_model.synthetic import Measurement, generate_dataset
+    from diagnosis.fit import InProcess
     from diagnosis.proofs import DRIVES, RIGS
     rig = RIGS[case.get("rig", "ideal")]
     kind, hz = DRIVES[case.get("drive", "reset_hold")]

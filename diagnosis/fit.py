@@ -174,6 +174,18 @@ def one_blas_thread():
     threadpool_limits(1)
 
 
+class InProcess:
+    """An executor that runs the model in the calling process (a small diagnosis, or one
+    already running one per core, needs no worker processes)."""
+
+    @staticmethod
+    def map(fn, jobs):
+        return map(fn, jobs)
+
+    def shutdown(self, *a, **k):
+        pass
+
+
 def local_executor(workers=None):
     """Local worker processes (one BLAS thread each, Ctrl-C left to the parent: stop it
     with dfa_model.interrupt.stop_pool, or owned_pool)."""

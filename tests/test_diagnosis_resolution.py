@@ -13,14 +13,7 @@ import diagnosis
 from dfa_model import parameters, preset
 from dfa_model.recordings import read_dataset
 from dfa_model.synthetic import Measurement, generate_dataset
-
-
-class InProcess:
-    def map(self, fn, jobs):
-        return map(fn, jobs)
-
-    def shutdown(self):
-        pass
+from diagnosis.fit import InProcess
 
 
 @pytest.fixture(scope="module")

@@ -86,20 +86,13 @@ def test_fmu_and_ssp(tmp_path, capsys, mask, want):
                if not k.endswith(".so")) == {want}
 
 
-class InProcess:
-    def map(self, fn, jobs):
-        return map(fn, jobs)
-
-    def shutdown(self):
-        pass
-
-
 @pytest.fixture(scope="module")
 def small_diagnosis(tmp_path_factory):
     """One short recording, the baseline fit only (no candidates): what matters is the writing."""
     import diagnosis
     from dfa_model.recordings import read_dataset
     from dfa_model.synthetic import generate_dataset
+    from diagnosis.fit import InProcess
     folder = tmp_path_factory.mktemp("modes_diag")
     nominal = preset("vshape-table1").replace(N=21, rho_l=3e12)
     generate_dataset(folder / "data", nominal.replace(rho_l=2e12), nominal, [(6000.0, 5.0)], repetitions=1,

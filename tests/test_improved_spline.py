@@ -12,17 +12,8 @@ from dfa_model import preset
 from dfa_model.recordings import read_dataset
 from dfa_model.synthetic import generate_dataset
 from diagnosis.proofs import E6
+from diagnosis.fit import InProcess
 from improved_support import check_improved
-
-
-class InProcess:
-    """Runs the model in this process: the small diagnosis needs no worker processes."""
-
-    def map(self, fn, jobs):
-        return map(fn, jobs)
-
-    def shutdown(self):
-        pass
 
 
 @pytest.fixture(scope="module")
