@@ -217,7 +217,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         ctx = Context.of(dataset)
         say("baseline fit (rho_l)")
         f0 = fit(dataset, baseline_spec(base, ctx), base=base, holdout=holdout, executor=executor)
-        base, f0, raised = _resolve(dataset, base, ctx, f0, holdout, executor, say)
+        base, f0, raised, fine = _resolve(dataset, base, ctx, f0, holdout, executor, say)
         say(f"baseline: train RMSE {f0.train_rmse * 1e6:.3g} um, held out {_um(f0.heldout_rmse)}; locating")
         windows = locate(dataset, f0)
         trends = condition_trends(dataset, windows)
@@ -286,7 +286,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
             say(f"nothing held out: {', '.join(e.key for e in unverified)} not applied (unverified suggestions)")
         if any(e.kind == "physics" for e in kept):
             kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
-                                                         say)
+                                                         say, fine)
         final_windows = locate(dataset, current) if current is not f0 else None
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
                          final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
@@ -313,7 +313,9 @@ def _resolve(dataset, base, ctx, f0, holdout, executor, say):
     own discretization error against a finer truth is structured and large (11 um at N =
     21 against 1.5 um noise on the lab rig): at N = 21 a spline law took up enough of it,
     and kept its share when the elements doubled, to be named on a null dataset. Returns
-    (base, baseline fit, the steps [{N, error}] taken; [] when N stays)."""
+    (base, baseline fit, the steps [{N, error}] taken ([] when N stays), the baseline fit
+    at fine_N of the returned base when one was made and not taken, else None: the same
+    refit _resolution_check would make)."""
     steps = []
     for _ in range(RAISE_MAX):
         if _error(f0) <= RAISE_FLOOR * f0.sigma:
@@ -326,12 +328,12 @@ def _resolve(dataset, base, ctx, f0, holdout, executor, say):
         except Exception:          # the finer model cannot run: stay (the check after selection says so)
             break
         if not _error(ff) < RAISE_GAIN * _error(f0):
-            break
+            return base, f0, steps, ff
         say(f"resolution first: the baseline at N = {Nf} fits better ({_um(_error(f0))} -> {_um(_error(ff))}): "
             f"the selection runs at N = {Nf}")
         steps.append({"N": base.N, "error": _error(f0), "N_fine": Nf, "error_fine": _error(ff)})
         base, f0 = fb, ff
-    return base, f0, steps
+    return base, f0, steps, None
 
 
 def fine_N(N: int) -> int:
@@ -339,7 +341,7 @@ def fine_N(N: int) -> int:
     return 2 * (N - 1) + 1
 
 
-def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, say):
+def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, say, fine=None):
     """Rule out the model's own discretization error before naming missing physics. The
     baseline and the kept model are refitted at fine_N (warm-started: a few steps). Real
     physics keeps its gain over the baseline when the elements double; an entry that only
@@ -350,8 +352,9 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
     what it was; the final model is then the finer baseline (with any kept nominal
     corrections refitted there). Physics that holds stays, and when its refit at fine_N
     fits better than at N, that refit is the final model (record 'refined'): the model's
-    own resolution error is not left to read as unexplained mismatch. The check assumes the finer model is nearer the data; when
-    the finer baseline fits no better (RES_PREMISE), the data share the model's own grid
+    own resolution error is not left to read as unexplained mismatch. `fine`: the
+    baseline's refit at fine_N if _resolve already made it. The check assumes the finer
+    model is nearer the data; when the finer baseline fits no better (RES_PREMISE), the data share the model's own grid
     (synthetic data made at this N: then the coarse model is exact and the finer one off by
     its discretization error) and the check is inconclusive: what was kept stands.
     Returns (kept, final, the check's record)."""
@@ -362,8 +365,8 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
     fb = base.replace(N=Nf)
     pk = current.params.replace(N=Nf)
     try:
-        ff = fit(dataset, baseline_spec(fb, ctx), base=fb, holdout=holdout, executor=executor, warm=f0,
-                 max_nfev=RES_NFEV)
+        ff = fine if fine is not None else fit(dataset, baseline_spec(fb, ctx), base=fb, holdout=holdout,
+                                               executor=executor, warm=f0, max_nfev=RES_NFEV)
         if _error(ff) >= RES_PREMISE * _error(f0):
             # the finer baseline fits no better: the misfit is not the model's resolution (a
             # large missing effect dominates it), or the data share the model's own grid

@@ -117,6 +117,6 @@ def test_resolution_first_raises_N_while_the_finer_baseline_fits_better(monkeypa
     for errs, N_end in cases:
         fits = iter([res(e, 21) for e in errs])
         monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
-        b, f, steps = dg._resolve(None, base, None, res(11e-6, 21), None, None, lambda s: None)
+        b, f, steps, _ = dg._resolve(None, base, None, res(11e-6, 21), None, None, lambda s: None)
         assert b.N == N_end and len(steps) == {21: 0, 41: 1, 81: 2}[N_end]
         assert [s["N_fine"] for s in steps] == [41, 81][:len(steps)]
