@@ -50,20 +50,11 @@ static struct {
     FMI2_FUNCTIONS(FIELD)
 #undef FIELD
 } impl;
-static int loaded; /* impl is complete */
-static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
 
-/* Load Python (if needed) and the implementation; 1 on success, else 0 with msg. */
-static int load(const char *resources, char *msg, size_t n)
+/* The implementation's functions (h, at path) into impl; 1 on success, else 0 with msg. */
+static int lookup(void *h, const char *path, char *msg, size_t n)
 {
-    char path[PATH_MAX];
-    void *h = load_implementation(resources, msg, n, path, sizeof path);
-    if (!h) return 0;
-#define LOOKUP(f)                                                                          \
-    if (!(impl.f = (fmi2##f##TYPE *)dlsym(h, "fmi2" #f))) {                                \
-        snprintf(msg, n, "fmi2Instantiate: %s has no fmi2" #f " (a broken FMU)", path); \
-        return 0;                                                                          \
-    }
+#define LOOKUP(f) DFA_LOOKUP(fmi2, f)
     FMI2_FUNCTIONS(LOOKUP)
 #undef LOOKUP
     return 1;
@@ -76,28 +67,13 @@ const char *fmi2GetVersion(void) { return fmi2Version; }
 fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, fmi2String resourceLocation,
                               const fmi2CallbackFunctions *cb, fmi2Boolean visible, fmi2Boolean loggingOn)
 {
-    pthread_mutex_lock(&load_lock);
-    if (!loaded) {
-        char msg[4 * PATH_MAX], *res = NULL;
-        if (resourceLocation) res = uri_to_path(resourceLocation); /* to read python.txt */
-        int ok = load(res ? res : ".", msg, sizeof msg);
-        free(res);
-        if (ok) __atomic_store_n(&loaded, 1, __ATOMIC_RELEASE);
-        else {
-            memset(&impl, 0, sizeof impl);
-            pthread_mutex_unlock(&load_lock);
-            log_escaped(cb, name, fmi2Error, "logStatusError", msg);
-            return NULL;
-        }
+    char msg[4 * PATH_MAX];
+    if (!ensure_loaded(resourceLocation, uri_to_path, lookup, &impl, sizeof impl, msg, sizeof msg)) {
+        log_escaped(cb, name, fmi2Error, "logStatusError", msg);
+        return NULL;
     }
-    pthread_mutex_unlock(&load_lock);
     return impl.Instantiate(name, type, guid, resourceLocation, cb, visible, loggingOn);
 }
-
-/* Before a successful instantiation there is no instance: every call with one is refused
- * (fmi2Error), as the implementation refuses unknown instances. */
-#define READY(fail) \
-    if (!__atomic_load_n(&loaded, __ATOMIC_ACQUIRE)) return fail;
 
 void fmi2FreeInstance(fmi2Component c)
 {

@@ -1,7 +1,8 @@
 /* The FMI 3.0 FMU's binary as the host loads it: finds a Python, then loads the
  * implementation (fmi3_python.c, compiled beside it as <name>-python.so) and forwards
  * every FMI 3.0 call. The FMI 3.0 counterpart of fmi2_loader.c (see its header: why a
- * separate loader, where the Python comes from); what they share is loader_common.h.
+ * separate loader, where the Python comes from); what they share is loader_common.h,
+ * what it shares with fmi3_python.c fmi3_common.h.
  * Needs nothing but libc and libdl: fmi3InstantiateCoSimulation can always run and say,
  * through the host's logger with fmi3Error, what is missing.
  *
@@ -17,7 +18,7 @@
 #include <string.h>
 
 #include "fmi2_common.h" /* first_line, uri_to_path, python_of */
-#include "fmi3Functions.h"
+#include "fmi3_common.h" /* fmi3GetVersion, log_early, resource_dir, the other interface types */
 #define DFA_WHERE "fmi3InstantiateCoSimulation"
 #include "loader_common.h"
 
@@ -146,20 +147,11 @@ static struct {
     FMI3_FORWARDED(FIELD)
 #undef FIELD
 } impl;
-static int loaded; /* impl is complete */
-static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
 
-/* Load Python (if needed) and the implementation; 1 on success, else 0 with msg. */
-static int load(const char *resources, char *msg, size_t n)
+/* The implementation's functions (h, at path) into impl; 1 on success, else 0 with msg. */
+static int lookup(void *h, const char *path, char *msg, size_t n)
 {
-    char path[PATH_MAX];
-    void *h = load_implementation(resources, msg, n, path, sizeof path);
-    if (!h) return 0;
-#define LOOKUP(f, params, args)                                                                      \
-    if (!(impl.f = (fmi3##f##TYPE *)dlsym(h, "fmi3" #f))) {                                          \
-        snprintf(msg, n, DFA_WHERE ": %s has no fmi3" #f " (a broken FMU)", path);                    \
-        return 0;                                                                                    \
-    }
+#define LOOKUP(f, params, args) DFA_LOOKUP(fmi3, f)
     LOOKUP(InstantiateCoSimulation, , )
     LOOKUP(FreeInstance, , )
     FMI3_FORWARDED(LOOKUP)
@@ -167,14 +159,7 @@ static int load(const char *resources, char *msg, size_t n)
     return 1;
 }
 
-static void log_early(fmi3LogMessageCallback log, fmi3InstanceEnvironment env, const char *msg)
-{
-    if (log) log(env, fmi3Error, "logStatusError", msg);
-}
-
 /* ------------------------------------------------------------------ the FMI functions */
-const char *fmi3GetVersion(void) { return fmi3Version; }
-
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3String resourcePath,
                                          fmi3Boolean visible, fmi3Boolean loggingOn, fmi3Boolean eventModeUsed,
                                          fmi3Boolean earlyReturnAllowed, const fmi3ValueReference required[],
@@ -182,52 +167,14 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
                                          fmi3LogMessageCallback logMessage,
                                          fmi3IntermediateUpdateCallback intermediateUpdate)
 {
-    pthread_mutex_lock(&load_lock);
-    if (!loaded) {
-        char msg[4 * PATH_MAX], *res = NULL;
-        if (resourcePath) res = strncmp(resourcePath, "file:", 5) == 0 ? uri_to_path(resourcePath)
-                                                                       : strdup(resourcePath); /* python.txt */
-        int ok = load(res ? res : ".", msg, sizeof msg);
-        free(res);
-        if (ok) __atomic_store_n(&loaded, 1, __ATOMIC_RELEASE);
-        else {
-            memset(&impl, 0, sizeof impl);
-            pthread_mutex_unlock(&load_lock);
-            log_early(logMessage, env, msg);
-            return NULL;
-        }
+    char msg[4 * PATH_MAX];
+    if (!ensure_loaded(resourcePath, resource_dir, lookup, &impl, sizeof impl, msg, sizeof msg)) {
+        log_early(logMessage, env, msg);
+        return NULL;
     }
-    pthread_mutex_unlock(&load_lock);
     return impl.InstantiateCoSimulation(name, token, resourcePath, visible, loggingOn, eventModeUsed,
                                         earlyReturnAllowed, required, nRequired, env, logMessage, intermediateUpdate);
 }
-
-fmi3Instance fmi3InstantiateModelExchange(fmi3String name, fmi3String token, fmi3String resourcePath,
-                                          fmi3Boolean visible, fmi3Boolean loggingOn, fmi3InstanceEnvironment env,
-                                          fmi3LogMessageCallback logMessage)
-{
-    (void)name, (void)token, (void)resourcePath, (void)visible, (void)loggingOn;
-    log_early(logMessage, env, "fmi3InstantiateModelExchange: this FMU supports co-simulation only");
-    return NULL;
-}
-
-fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token, fmi3String resourcePath,
-                                               fmi3Boolean visible, fmi3Boolean loggingOn,
-                                               fmi3InstanceEnvironment env, fmi3LogMessageCallback logMessage,
-                                               fmi3ClockUpdateCallback clockUpdate,
-                                               fmi3LockPreemptionCallback lockPreemption,
-                                               fmi3UnlockPreemptionCallback unlockPreemption)
-{
-    (void)name, (void)token, (void)resourcePath, (void)visible, (void)loggingOn;
-    (void)clockUpdate, (void)lockPreemption, (void)unlockPreemption;
-    log_early(logMessage, env, "fmi3InstantiateScheduledExecution: this FMU supports co-simulation only");
-    return NULL;
-}
-
-/* Before a successful instantiation there is no instance: every call with one is refused
- * (fmi3Error), as the implementation refuses unknown instances. */
-#define READY(fail) \
-    if (!__atomic_load_n(&loaded, __ATOMIC_ACQUIRE)) return fail;
 
 void fmi3FreeInstance(fmi3Instance i)
 {

@@ -33,13 +33,7 @@
 
 #include <stdbool.h>
 
-const char *fmi3GetVersion(void) { return fmi3Version; }
-
-/* A log line through a logger before there is an instance. */
-static void log_early(fmi3LogMessageCallback log, fmi3InstanceEnvironment env, const char *msg)
-{
-    if (log) log(env, fmi3Error, "logStatusError", msg);
-}
+#include "fmi3_common.h" /* fmi3GetVersion, log_early, resource_dir, the other interface types */
 
 /* A function this FMU does not provide: fmi3Error, and a log line on a live instance. */
 static fmi3Status refuse(fmi3Instance inst, const char *fn, const char *why)
@@ -47,18 +41,6 @@ static fmi3Status refuse(fmi3Instance inst, const char *fn, const char *why)
     Comp *c = registry_find(inst);
     if (c) logf_(c, fmi2Error, "%s: %s", fn, why);
     return fmi3Error;
-}
-
-/* resourcePath (FMI 3.0: a path, ending in a separator) -> a malloc'ed path without the
- * trailing separator; a file URI (from a host that passes one) is read as fmi2 does. */
-static char *resource_dir(const char *path)
-{
-    if (strncmp(path, "file:", 5) == 0) return uri_to_path(path);
-    char *out = strdup(path);
-    if (!out) return NULL;
-    size_t k = strlen(out);
-    while (k > 1 && out[k - 1] == '/') out[--k] = 0;
-    return out;
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3String resourcePath,
@@ -97,28 +79,6 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
         return NULL;
     }
     return (fmi3Instance)instantiate(c);
-}
-
-fmi3Instance fmi3InstantiateModelExchange(fmi3String name, fmi3String token, fmi3String resourcePath,
-                                          fmi3Boolean visible, fmi3Boolean loggingOn, fmi3InstanceEnvironment env,
-                                          fmi3LogMessageCallback logMessage)
-{
-    (void)name, (void)token, (void)resourcePath, (void)visible, (void)loggingOn;
-    log_early(logMessage, env, "fmi3InstantiateModelExchange: this FMU supports co-simulation only");
-    return NULL;
-}
-
-fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token, fmi3String resourcePath,
-                                               fmi3Boolean visible, fmi3Boolean loggingOn,
-                                               fmi3InstanceEnvironment env, fmi3LogMessageCallback logMessage,
-                                               fmi3ClockUpdateCallback clockUpdate,
-                                               fmi3LockPreemptionCallback lockPreemption,
-                                               fmi3UnlockPreemptionCallback unlockPreemption)
-{
-    (void)name, (void)token, (void)resourcePath, (void)visible, (void)loggingOn;
-    (void)clockUpdate, (void)lockPreemption, (void)unlockPreemption;
-    log_early(logMessage, env, "fmi3InstantiateScheduledExecution: this FMU supports co-simulation only");
-    return NULL;
 }
 
 void fmi3FreeInstance(fmi3Instance inst) { fmi2FreeInstance(inst); }

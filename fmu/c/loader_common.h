@@ -1,9 +1,10 @@
 /* What the FMU's loaders share (fmi2_loader.c, fmi3_loader.c: the library a host loads,
  * needing only libc and libdl): finding and loading a Python's shared library for a C
- * host, checking the version of a Python already in the process, and loading the
+ * host, checking the version of a Python already in the process, loading the
  * implementation (<name>-python.so, compiled from fmi2_python.c or fmi3_python.c) beside
- * the loader. Messages start with DFA_WHERE, the instantiating function's name, which the
- * includer defines. See fmi2_loader.c's header for where the Python comes from.
+ * the loader once, at the first instantiation, and refusing calls before that. Messages
+ * start with DFA_WHERE, the instantiating function's name, which the includer defines.
+ * See fmi2_loader.c's header for where the Python comes from.
  *
  * Compiled by fmu/build.py with DFA_PY_MAJOR, DFA_PY_MINOR, DFA_LIBPYTHON (the shared
  * library's file name) and DFA_LIBDIR (its folder at build time). */
@@ -16,6 +17,7 @@
 
 #include <dlfcn.h>
 #include <limits.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -139,5 +141,47 @@ static void *load_implementation(const char *resources, char *msg, size_t n, cha
     if (!h) snprintf(msg, n, DFA_WHERE ": cannot load the FMU's implementation %s: %s", path, dlerror());
     return h;
 }
+
+/* The includer's table of the implementation's functions (`impl`) is complete: set once,
+ * under load_lock, by ensure_loaded. */
+static int loaded;
+static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
+
+/* In the includer's lookup function (h: the implementation's handle, path: its file, msg
+ * and n: the message buffer): impl.f = the implementation's function <prefix><f>, else
+ * return 0 with msg naming the missing one. */
+#define DFA_LOOKUP(prefix, f)                                                              \
+    if (!(impl.f = (prefix##f##TYPE *)dlsym(h, #prefix #f))) {                             \
+        snprintf(msg, n, DFA_WHERE ": %s has no " #prefix #f " (a broken FMU)", path);     \
+        return 0;                                                                          \
+    }
+
+/* At instantiation: the first time, load Python (if the process has none) and the
+ * implementation, and fill the includer's table of its functions with lookup (table,
+ * size: that table, cleared when anything is missing). resources: the instantiation's
+ * resource location (NULL: none), made a folder by to_dir (malloc'ed) to read python.txt
+ * from. Returns 1 (at once once loaded), or 0 with msg filled. */
+static int ensure_loaded(const char *resources, char *(*to_dir)(const char *),
+                         int (*lookup)(void *h, const char *path, char *msg, size_t n), void *table, size_t size,
+                         char *msg, size_t n)
+{
+    int ok = 1;
+    pthread_mutex_lock(&load_lock);
+    if (!loaded) {
+        char path[PATH_MAX], *res = resources ? to_dir(resources) : NULL;
+        void *h = load_implementation(res ? res : ".", msg, n, path, sizeof path);
+        free(res);
+        ok = h && lookup(h, path, msg, n);
+        if (ok) __atomic_store_n(&loaded, 1, __ATOMIC_RELEASE);
+        else memset(table, 0, size);
+    }
+    pthread_mutex_unlock(&load_lock);
+    return ok;
+}
+
+/* Before a successful instantiation there is no instance: every call with one is refused
+ * (fmi2Error, fmi3Error: `fail`), as the implementation refuses unknown instances. */
+#define READY(fail) \
+    if (!__atomic_load_n(&loaded, __ATOMIC_ACQUIRE)) return fail;
 
 #endif
