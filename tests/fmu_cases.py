@@ -17,40 +17,18 @@ import pytest
 fmpy = pytest.importorskip("fmpy")
 pytest.importorskip("pythonfmu")
 from fmpy.fmi1 import FMICallException  # noqa: E402
-from fmpy.fmi2 import FMU2Slave  # noqa: E402
 
 from dfa_model import PhysicsWarning, Protocol, preset, simulate  # noqa: E402
 from dfa_model.stepper import Stepper  # noqa: E402
 from dfa_model.waveforms import Sampled  # noqa: E402
 from fmu import build_fmu  # noqa: E402
-
-H = 1e-3
+# the FMU tests' shared helpers and fixtures md, unzipped (of fmu_path below)
+from fmu_support import H, description, direct_stroke, md, slave, unzipped, vr  # noqa: E402,F401
 
 
 @pytest.fixture(scope="module")
 def fmu_path(tmp_path_factory):
     return build_fmu(preset("vshape-table1"), tmp_path_factory.mktemp("fmu") / "DFAActuator.fmu")
-
-
-@pytest.fixture(scope="module")
-def md(fmu_path):
-    return fmpy.read_model_description(str(fmu_path))
-
-
-@pytest.fixture(scope="module")
-def unzipped(fmu_path, tmp_path_factory):
-    return fmpy.extract(str(fmu_path), str(tmp_path_factory.mktemp("unz")))
-
-
-def vr(md):
-    return {v.name: v.valueReference for v in md.modelVariables}
-
-
-def slave(md, unzipped, name="a"):
-    s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
-                  instanceName=name)
-    s.instantiate()
-    return s
 
 
 def fmu_stroke(md, unzipped, V, reals=None, booleans=None, stop_time=None):
@@ -74,16 +52,6 @@ def fmu_stroke(md, unzipped, V, reals=None, booleans=None, stop_time=None):
     return np.array(x)
 
 
-def direct_stroke(nsteps, voltage=6000.0, force=5.0, t_end=None):
-    """Stroke after nsteps steps of H, computed by the model directly (no FMU), stepping
-    as the FMU does by default (free stepping, the master's clock k H, the run's end)."""
-    st = Stepper(preset("vshape-table1"), v_nominal=6000.0, t_end=t_end, exact=False)
-    for k in range(nsteps):
-        st.t = k * H
-        st.step(H, voltage, force)
-    return st.outputs["stroke"]
-
-
 def bipolar(n, v=6000.0, period_steps=34):
     return np.where((np.arange(n) // (period_steps // 2)) % 2 == 0, v, -v)
 
@@ -100,9 +68,7 @@ def check_description(fmu_path, ranges: dict):
     lies within [min, max]; nominal values are > 0; the initial outputs depend on the
     parameters only. Returns the variables' typed elements by name."""
     import math
-    from xml.etree import ElementTree as ET
-    with zipfile.ZipFile(fmu_path) as z:
-        root = ET.fromstring(z.read("modelDescription.xml"))
+    root = description(fmu_path)
     units = {u.get("name"): u for u in root.find("UnitDefinitions")}
     prefix = {"m": 1e-3, "u": 1e-6, "n": 1e-9, "k": 1e3, "M": 1e6}
     typed, by_index = {}, {}
@@ -636,9 +602,7 @@ class Fuzzer:
         self.new_instance()
 
     def new_instance(self):
-        self.s = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipped,
-                           modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName="fuzz")
-        self.s.instantiate(callbacks=self.callbacks)
+        self.s = slave(self.md, self.unzipped, "fuzz", callbacks=self.callbacks)
         self.o = Oracle()
 
     def invoke(self, fname, *args, logged=True):
