@@ -199,13 +199,15 @@ def test_the_data_choose_the_spline_knots(monkeypatch):
     def fake_fit(dataset, spec, base, **kw):
         starts.append(base)
         assert [f.key for f in spec[-(base.n_knots - 1):]] == [f"d_rho{k}" for k in range(1, base.n_knots)]
-        return NS(params=base.replace(d_rho1=base.d_rho1 + 0.1), bic=bic[base.n_knots], heldout_rmse=1e-6)
+        return NS(params=base.replace(d_rho1=base.d_rho1 + 0.1), bic=bic[base.n_knots], heldout_rmse=1e-6, sigma=1e-7)
 
     monkeypatch.setattr(dg, "fit", fake_fit)
     p2 = entry.prepare(nominal, ctx).replace(d_rho1=1.0)
     assert p2.law == "spline" and p2.n_knots == 2
-    best, steps = dg._more_shape(None, entry, NS(params=p2, bic=bic[2], heldout_rmse=2e-6),
-                                 lambda q: entry.spec(q, ctx), ctx, None, None, lambda s: None)
+    first = NS(params=p2, bic=bic[2], heldout_rmse=2e-6, sigma=1e-7)
+    search = lambda rivals=(): dg._more_shape(None, entry, first, lambda q: entry.spec(q, ctx), ctx,  # noqa: E731
+                                              None, None, lambda s: None, rivals)
+    best, steps = search()
     assert best.params.n_knots == 4 and [s["n_knots"] for s in steps] == [2, 3, 4, 5]
     assert [s["delta_bic"] for s in steps] == [0.0, -40.0, -60.0, bic[5]]
     # each fit starts from the last kept law through one knot more, passing through it at the knots
@@ -215,3 +217,10 @@ def test_the_data_choose_the_spline_knots(monkeypatch):
         E, r = from_parameters(q).knots
         assert np.allclose(r, from_parameters(prev).rho(E), rtol=1e-9)
         prev = q.replace(d_rho1=q.d_rho1 + 0.1)
+    # a rival form of the entry that fits better and leaves the error at the noise: more
+    # knots could only fit noise, so there is no search (a rival worse than the form, or
+    # one above the noise, does not stop it)
+    starts.clear()
+    assert search([NS(bic=-1.0, heldout_rmse=1.05e-7, sigma=1e-7)]) == (first, []) and not starts
+    assert search([NS(bic=+1.0, heldout_rmse=1.05e-7, sigma=1e-7)])[0].params.n_knots == 4
+    assert search([NS(bic=-1.0, heldout_rmse=3e-7, sigma=1e-7)])[0].params.n_knots == 4
