@@ -24,7 +24,7 @@ import numpy as np
 
 HERE = Path(__file__).parent
 # modules whose njit functions go into the compiled code (also: what _jitcache hashes)
-KERNEL_MODULES = ("equations", "nodal", "kinematics", "integrator", "kernels", "dielectrics", "surrogate_kernel")
+KERNEL_MODULES = ("equations", "nodal", "kinematics", "integrator", "kernels", "surrogate_kernel")
 AOT_MODULE = "_kernels_aot"
 
 # The compiled exports: "module.function" -> argument codes, result code. Codes:

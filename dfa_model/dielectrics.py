@@ -103,23 +103,33 @@ class LinearResistivity(ResistivityLaw):
 
 class MonotoneSplineResistivity(ResistivityLaw):
     """A law of a shape nobody has to guess: ln rho a monotone (PCHIP) spline in ln |E|
-    through SPLINE_KNOTS knots spaced evenly in ln |E| from E_lo to E_hi; rho_l below
-    E_lo, constant above E_hi. The knot values are rho_l exp(-(d_1 + ... + d_k)) with
-    drops d_k >= 0: non-increasing in the field (field-enhanced dissociation and charge
-    injection lower the resistivity), and the constant law when every drop is 0."""
+    through 2 to SPLINE_KNOTS_MAX knots spaced evenly in ln |E| from E_lo to E_hi (one knot
+    more than drops); rho_l below E_lo, constant above E_hi. The knot values are
+    rho_l exp(-(d_1 + ... + d_k)) with drops d_k >= 0: non-increasing in the field
+    (field-enhanced dissociation and charge injection lower the resistivity), and the
+    constant law when every drop is 0. Two knots make a power law between E_lo and E_hi."""
 
     def __init__(self, rho_l: float, E_lo: float = 1e6, E_hi: float = 1e8, drops=(0.0, 0.0, 0.0)):
         self.rho_l, self.E_lo, self.E_hi = float(rho_l), float(E_lo), float(E_hi)
         self.drops = np.asarray(drops, float)
-        if self.drops.shape != (SPLINE_KNOTS - 1,) or np.any(self.drops < 0) or not 0 < self.E_lo < self.E_hi:
-            raise ValueError(f"MonotoneSplineResistivity: need {SPLINE_KNOTS - 1} drops >= 0 and 0 < E_lo < E_hi")
+        if (self.drops.ndim != 1 or not 1 <= self.drops.size <= SPLINE_KNOTS_MAX - 1 or np.any(self.drops < 0)
+                or not 0 < self.E_lo < self.E_hi):
+            raise ValueError(f"MonotoneSplineResistivity: need 1 to {SPLINE_KNOTS_MAX - 1} drops >= 0 and "
+                             f"0 < E_lo < E_hi")
         self._table = None
 
     @property
     def knots(self):
         """(E_k, rho_k): the knots (V/m, ohm m)."""
-        E = np.geomspace(self.E_lo, self.E_hi, SPLINE_KNOTS)
+        E = np.geomspace(self.E_lo, self.E_hi, self.drops.size + 1)
         return E, self.rho_l * np.exp(-np.concatenate([[0.0], np.cumsum(self.drops)]))
+
+    def resampled(self, n_knots: int) -> np.ndarray:
+        """The drops of the law through n_knots knots that passes through this one at them
+        (same E_lo, E_hi and level below E_lo): where a fit with more knots starts, so that
+        the finer law starts as close to this one as its knots allow."""
+        E = np.geomspace(self.E_lo, self.E_hi, n_knots)
+        return np.maximum(-np.diff(np.log(self.rho(E))), 0.0)
 
     def rho(self, E):
         from scipy.interpolate import PchipInterpolator
@@ -132,15 +142,22 @@ class MonotoneSplineResistivity(ResistivityLaw):
                 f"drops={self.drops.tolist()})")
 
 
-SPLINE_KNOTS = 4
+SPLINE_KNOTS_MAX = 6    # parameters.n_knots' range: a law with more shape than this is not resolved by an
+#                         actuator's stroke (each knot's drop moves the stroke through the charge in its field band)
 
 
 def from_parameters(p) -> ResistivityLaw:
     if p.law == "constant":
         return ConstantResistivity(p.rho_l)
     if p.law == "spline":
-        return MonotoneSplineResistivity(p.rho_l, p.E_lo, p.E_hi, (p.d_rho1, p.d_rho2, p.d_rho3))
+        return MonotoneSplineResistivity(p.rho_l, p.E_lo, p.E_hi, spline_drops(p))
     return LinearResistivity(p.m_rho, p.q_rho, p.rho_min)
+
+
+def spline_drops(p) -> tuple:
+    """The spline law's drops in p (d_rho1 ... d_rho{n_knots - 1})."""
+    from .parameters import DROP_KEYS
+    return tuple(getattr(p, k) for k in DROP_KEYS[:p.n_knots - 1])
 
 
 def warn_if_clipped(law: ResistivityLaw, E_abs_max: float) -> bool:

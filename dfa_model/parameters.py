@@ -81,11 +81,13 @@ SPEC: dict[str, Spec] = {
     "rho_min": Spec("resistivity", "ohm m", "floor at which the linear law is clipped", 0.0, 1e25),
     "E_lo": Spec("resistivity", "V/m", "first knot of the spline law (rho_l below it)", 0.0, 1e10),
     "E_hi": Spec("resistivity", "V/m", "last knot of the spline law (constant above it)", 0.0, 1e10),
-    "d_rho1": Spec("resistivity", "", "spline law: ln rho drop from knot 1 to 2", 0.0, 50.0, True),
-    "d_rho2": Spec("resistivity", "", "spline law: ln rho drop from knot 2 to 3", 0.0, 50.0, True),
-    "d_rho3": Spec("resistivity", "", "spline law: ln rho drop from knot 3 to 4", 0.0, 50.0, True),
+    "n_knots": Spec("resistivity", "", "spline law: number of knots, evenly spaced in ln |E| from E_lo to E_hi",
+                    2, 6, True, int),
+    **{f"d_rho{k}": Spec("resistivity", "", f"spline law: ln rho drop from knot {k} to {k + 1} (0 beyond n_knots)",
+                         0.0, 50.0, True) for k in range(1, 6)},
 }
-SPLINE_KEYS = ("E_lo", "E_hi", "d_rho1", "d_rho2", "d_rho3")
+DROP_KEYS = tuple(f"d_rho{k}" for k in range(1, 6))   # the spline law's drops, as many as its most knots less one
+SPLINE_KEYS = ("E_lo", "E_hi", "n_knots", *DROP_KEYS)
 TABLES = ("geometry", "materials", "mechanics", "polarization", "circuit", "discretization", "resistivity")
 # keys a parameter file must give (others have documented defaults: k = 0, the scheme,
 # rtol, rho_t_s, and the constant law); a and volume by layout
@@ -127,9 +129,12 @@ class Parameters:
     rho_min: float = 1e11
     E_lo: float = 1e6
     E_hi: float = 1e8
+    n_knots: int = 4
     d_rho1: float = 0.0
     d_rho2: float = 0.0
     d_rho3: float = 0.0
+    d_rho4: float = 0.0
+    d_rho5: float = 0.0
 
     def __post_init__(self):
         validate(self)
@@ -278,6 +283,11 @@ def validate(p: Parameters) -> None:
     if p.law == "spline" and not p.E_lo < p.E_hi:
         raise ParameterError(f"E_hi: the spline law's last knot {p.E_hi:g} V/m must lie above its first, "
                              f"E_lo = {p.E_lo:g} V/m")
+    if p.law == "spline":
+        for key in DROP_KEYS[p.n_knots - 1:]:
+            if getattr(p, key):
+                raise ParameterError(f"{key}: must be 0 with n_knots = {p.n_knots} (a spline of n_knots knots has "
+                                     f"n_knots - 1 drops, d_rho1 to d_rho{p.n_knots - 1}); raise n_knots or remove it")
     th_min = math.radians(THETA0_MIN_DEG)
     if p.layout == "v-shaped":
         if p.a >= p.l:

@@ -9,7 +9,9 @@ its voltages and reference field) - and, if it is new physics, its key in dfa_mo
 (parameters.py, and the model's equations). `shows` names the model keys the report gives
 when the fit's coordinates are not keys themselves (a resistivity law's).
 
-Optional: `starts(p, ctx)` - start values (dicts of keys) to try when the neutral start cannot
+Optional: `refine(p, ctx)` - the next, more flexible form from a fitted one (the spline
+law's one knot more), fitted while the BIC falls: the data choose the complexity.
+`starts(p, ctx)` - start values (dicts of keys) to try when the neutral start cannot
 move (a time constant whose strength starts at 0, a resistance in log coordinates); the
 fit from each is run and the best kept. `variant` names one of several forms of an entry
 (field_dependent_resistivity: Eq. (21) or the monotone spline): the data choose between
@@ -24,8 +26,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from dfa_model.dielectrics import SPLINE_KNOTS_MAX, from_parameters
 from dfa_model.kinematics import make
-from dfa_model.parameters import Parameters
+from dfa_model.parameters import DROP_KEYS, Parameters
 
 from .model import Coordinate, FreeParameter, zipped_field
 
@@ -81,7 +84,10 @@ class Entry:
     kind: str = "physics"          # 'physics' (missing physics) or 'nominal' (a corrected value)
     starts: Callable[[Parameters, Context], list] | None = None
     variant: str = ""
-    shows: tuple = ()              # model keys to report (default: the spec's keys)
+    shows: Callable[[Parameters], tuple] | tuple = ()   # model keys to report (default: the spec's keys)
+    # the next, more flexible form to fit from a fitted one (None: no more): its
+    # complexity chosen by the data (diagnose._more_shape)
+    refine: Callable[[Parameters, Context], Parameters | None] | None = None
 
     @property
     def key(self) -> str:
@@ -108,10 +114,26 @@ def spline_knots(p: Parameters, V_max: float) -> tuple[float, float]:
 
 
 def _spline_law(p: Parameters, ctx: Context) -> Parameters:
+    """The spline law at its fewest knots (a power law between its end knots): the data
+    add knots (`_more_knots`) from there."""
     if p.law == "spline":
         return p
     E_lo, E_hi = spline_knots(p, ctx.V_max)
-    return p.replace(law="spline", E_lo=E_lo, E_hi=E_hi, d_rho1=0.0, d_rho2=0.0, d_rho3=0.0)
+    return p.replace(law="spline", E_lo=E_lo, E_hi=E_hi, n_knots=2, **{k: 0.0 for k in DROP_KEYS})
+
+
+def _more_knots(p: Parameters, ctx: Context) -> Parameters | None:
+    """p's spline law through one knot more, passing through the fitted one at the new
+    knots (None at SPLINE_KNOTS_MAX): the start of the next fit of the knot search."""
+    if p.law != "spline" or p.n_knots >= SPLINE_KNOTS_MAX:
+        return None
+    drops = from_parameters(p).resampled(p.n_knots + 1)
+    return p.replace(n_knots=p.n_knots + 1, **dict(zip(DROP_KEYS, [*drops, *[0.0] * len(DROP_KEYS)])))
+
+
+def _spline_spec(p: Parameters, ctx: Context) -> list:
+    return [FreeParameter(k, False, 0.0, 20.0, scale=0.3, coord=Coordinate("drop", ctx.E_ref, k))
+            for k in DROP_KEYS[:p.n_knots - 1]]
 
 
 def _slope_start(p: Parameters, ctx: Context, s_rho: float, f_rho: float | None = None) -> dict:
@@ -155,11 +177,12 @@ PHYSICS = [
           # floor out of reach has no gradient, so the steep start also starts from a
           # floor within the probed fields
           starts=lambda p, ctx: [{}, _slope_start(p, ctx, -3.0, 0.5)]),
-    Entry("field_dependent_resistivity", _spline_law,
-          lambda p, ctx: [FreeParameter(k, False, 0.0, 20.0, scale=0.3, coord=Coordinate("drop", ctx.E_ref, k))
-                          for k in ("d_rho1", "d_rho2", "d_rho3")],
-          "the liquid's resistivity depends on its field: a monotone spline of ln rho_l in ln |E_l|",
-          variant="spline", shows=("rho_l", "d_rho1", "d_rho2", "d_rho3")),
+    # the knots are the data's choice: fitted at 2, then one more while the BIC falls
+    # (diagnose._more_shape), each fit starting from the last law
+    Entry("field_dependent_resistivity", _spline_law, _spline_spec,
+          "the liquid's resistivity depends on its field: a monotone spline of ln rho_l in ln |E_l|, with as many "
+          "knots as the data support",
+          variant="spline", shows=lambda p: ("rho_l", "n_knots", *DROP_KEYS[:p.n_knots - 1]), refine=_more_knots),
     Entry("polarization_branch", _no_change,
           lambda p, ctx: [FreeParameter("chi_p", False, 0.0, 5.0, scale=0.05),
                           FreeParameter("tau_p", True, 1e-3, 1e3)],

@@ -84,7 +84,7 @@ def entry_parameters(D, e, f=None) -> dict:
     they come from (default the final model)."""
     f = D.final if f is None else f
     if e.shows:
-        return f.model_values(e.shows)
+        return f.model_values(e.shows(f.params) if callable(e.shows) else e.shows)
     keys = [fp.key for fp in e.spec(f.params, D.context)]
     return {k: {"value": f.values[k], "stderr": f.stderr[k]} for k in keys}
 

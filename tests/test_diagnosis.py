@@ -176,3 +176,51 @@ def test_a_strong_screen_is_fitted_while_the_mismatch_is_large():
     assert "field_dependent_resistivity (spline)" in strong and "series_resistance" in strong
     # a weak screen (under BIC_MIN) or one predicting no fall at all stays out either way
     assert "inertia" not in strong and "stiffness" not in strong
+
+
+def test_the_data_choose_the_spline_knots(monkeypatch):
+    """Issue 24, item 2: the spline law's complexity is the data's choice. From the fitted
+    two-knot law, each fit adds a knot, starts from the last law resampled (so it starts
+    where that one ended) and is kept while the BIC falls by more than SHAPE_BIC; the
+    search and its steps go into the evidence. Here the fake fits' BIC falls steeply to 4
+    knots and then by less than SHAPE_BIC: 4 knots are kept and the 5-knot fit ends the
+    search (checked here with stand-in fits; the real fits in test_improved_spline.py)."""
+    from types import SimpleNamespace as NS
+
+    import importlib
+    dg = importlib.import_module("diagnosis.diagnose")
+    from diagnosis.catalog import PHYSICS, Context
+    entry = next(e for e in PHYSICS if e.variant == "spline")
+    nominal = preset("vshape-table1").replace(N=11)
+    ctx = Context(7000.0, 6000.0, 6e7)
+    bic = {2: 0.0, 3: -40.0, 4: -60.0, 5: -60.0 + 0.5 * dg.SHAPE_BIC, 6: -200.0}
+    starts = []
+
+    def fake_fit(dataset, spec, base, **kw):
+        starts.append(base)
+        assert [f.key for f in spec[-(base.n_knots - 1):]] == [f"d_rho{k}" for k in range(1, base.n_knots)]
+        return NS(params=base.replace(d_rho1=base.d_rho1 + 0.1), bic=bic[base.n_knots], heldout_rmse=1e-6, sigma=1e-7)
+
+    monkeypatch.setattr(dg, "fit", fake_fit)
+    p2 = entry.prepare(nominal, ctx).replace(d_rho1=1.0)
+    assert p2.law == "spline" and p2.n_knots == 2
+    first = NS(params=p2, bic=bic[2], heldout_rmse=2e-6, sigma=1e-7)
+    search = lambda rivals=(): dg._more_shape(None, entry, first, lambda q: entry.spec(q, ctx), ctx,  # noqa: E731
+                                              None, None, lambda s: None, rivals)
+    best, steps = search()
+    assert best.params.n_knots == 4 and [s["n_knots"] for s in steps] == [2, 3, 4, 5]
+    assert [s["delta_bic"] for s in steps] == [0.0, -40.0, -60.0, bic[5]]
+    # each fit starts from the last kept law through one knot more, passing through it at the knots
+    from dfa_model.dielectrics import from_parameters
+    prev = p2
+    for q in starts:
+        E, r = from_parameters(q).knots
+        assert np.allclose(r, from_parameters(prev).rho(E), rtol=1e-9)
+        prev = q.replace(d_rho1=q.d_rho1 + 0.1)
+    # a rival form of the entry that fits better and leaves the error at the noise: more
+    # knots could only fit noise, so there is no search (a rival worse than the form, or
+    # one above the noise, does not stop it)
+    starts.clear()
+    assert search([NS(bic=-1.0, heldout_rmse=1.05e-7, sigma=1e-7)]) == (first, []) and not starts
+    assert search([NS(bic=+1.0, heldout_rmse=1.05e-7, sigma=1e-7)])[0].params.n_knots == 4
+    assert search([NS(bic=-1.0, heldout_rmse=3e-7, sigma=1e-7)])[0].params.n_knots == 4

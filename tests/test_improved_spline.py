@@ -38,6 +38,11 @@ def test_the_spline_law_as_an_improved_model_runs_everywhere(spline):
     check_improved(D, report, out, fmu=True)
     text = (out / "improved.toml").read_text()
     assert 'law = "spline"' in text
+    # the knots are the data's choice: the search started at 2 and its steps are in the evidence
+    shape = report["candidates"][0]["field_dependent_resistivity (spline)"]["shape"]
+    assert shape[0]["n_knots"] == 2 and [s["n_knots"] for s in shape] == list(range(2, 2 + len(shape)))
+    kept = D.final.params.n_knots
+    assert f"n_knots = {kept}" in text and kept in [s["n_knots"] for s in shape]
     # the knots come with the form, not from the fit, and the header says so
     for k in ("E_lo", "E_hi"):
         line = next(ln for ln in text.splitlines() if ln.startswith(f"#   {k} = "))

@@ -85,3 +85,44 @@ def test_spline_law_errors_name_the_key(vshape81):
         vshape81.replace(law="spline", E_lo=1e8, E_hi=1e7)
     with pytest.raises(ParameterError, match="d_rho1: does not apply"):
         vshape81.replace(d_rho1=0.5)
+
+
+@pytest.mark.parametrize("n_knots", [2, 3, 5, 6])
+def test_spline_law_at_any_knot_count(vshape81, n_knots):
+    """The spline carries 2-6 knots (n_knots), one drop fewer; two make a power law
+    between its end knots. Resampled to one knot more (where the knot search starts), it
+    passes through the law it came from at every new knot and stays monotone."""
+    from dfa_model.dielectrics import from_parameters
+    from dfa_model.parameters import DROP_KEYS
+    drops = [0.4, 1.1, 0.0, 0.7, 0.2][:n_knots - 1]
+    p = vshape81.replace(law="spline", n_knots=n_knots, **dict(zip(DROP_KEYS, drops)))
+    law = from_parameters(p)
+    E_k, r_k = law.knots
+    assert E_k.size == n_knots and np.allclose(law.rho(E_k), r_k, rtol=1e-12)
+    if n_knots == 2:      # a power law: ln rho linear in ln E between the knots
+        E = np.geomspace(p.E_lo, p.E_hi, 7)
+        assert np.allclose(np.diff(np.log(law.rho(E)), 2), 0.0, atol=1e-12)
+    if n_knots < 6:
+        finer = law.resampled(n_knots + 1)
+        assert finer.size == n_knots and np.all(finer >= 0)
+        q = p.replace(n_knots=n_knots + 1, **dict(zip(DROP_KEYS, finer)))
+        E_new, r_new = from_parameters(q).knots
+        assert np.allclose(r_new, law.rho(E_new), rtol=1e-12)
+    # and the model runs it, from a parameter file too
+    assert parameters_roundtrip(p) == p
+
+
+def parameters_roundtrip(p):
+    import tomllib
+
+    from dfa_model.parameters import from_dict
+    return from_dict(tomllib.loads(p.to_toml()))
+
+
+def test_spline_drops_beyond_the_knots_are_an_error(vshape81):
+    from dfa_model.parameters import ParameterError
+    with pytest.raises(ParameterError, match="d_rho4: must be 0 with n_knots = 4"):
+        vshape81.replace(law="spline", d_rho4=0.5)
+    with pytest.raises(ParameterError, match=r"n_knots: .*2 <= value <= 6"):
+        vshape81.replace(law="spline", n_knots=7)
+    assert vshape81.replace(law="spline", n_knots=5, d_rho4=0.5).n_knots == 5
