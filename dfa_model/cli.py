@@ -265,7 +265,8 @@ def cmd_fmu_build(args):
         raise CLIError("--drive: only with --system (the drive FMU is part of the system; the actuator FMU alone "
                        "takes its voltage as an input)")
     if args.fmi == 3 and args.system:
-        raise CLIError("--fmi 3: not with --system (the SSP system's three FMUs are FMI 2.0 co-simulation FMUs)")
+        raise CLIError("--fmi 3: not with --system (the SSP system's three FMUs are FMI 2.0 co-simulation FMUs); "
+                       "expected --fmi 2, or no --fmi")
     if not args.preset and not args.params:
         args.preset = "vshape-table1"
     p = _params(args)

@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from .fileio import toml_float, write_text_atomic
+from .limits import MAX_DURATION
 from .waveforms import DC, Bipolar, Load, Protocol, Sampled, Stage, Unipolar, WaveformError, balanced_phase
 
 WAVEFORMS = ("dc", "bipolar", "unipolar", "sampled")
@@ -77,8 +78,8 @@ def _number(where, part, key, value, lo=None, lo_open=False, hi=None, hi_open=Fa
             rng.append(f"{'>' if lo_open else '>='} {lo:g}")
         if hi is not None:
             rng.append(f"{'<' if hi_open else '<='} {hi:g}")
-        raise where.error(part, key, f"got {value!r}, expected a finite number {' and '.join(rng)}"
-                          + (f" {unit}" if unit else ""))
+        want = f"{' and '.join(rng)} {unit}" if rng else f"({unit})" if unit else ""
+        raise where.error(part, key, f"got {value!r}, expected a finite number {want}".rstrip())
     return v
 
 
@@ -112,7 +113,7 @@ def _samples(where, part, table, folder, column):
     t = [_number(where, part, f"times[{i}]", v) for i, v in enumerate(table["times"])]
     v = [_number(where, part, f"values[{i}]", x) for i, x in enumerate(table["values"])]
     if len(t) != len(v):
-        raise where.error(part, "values", f"{len(v)} values for {len(t)} times")
+        raise where.error(part, "values", f"{len(v)} values for {len(t)} times, expected one value per time")
     return np.array(t), np.array(v)
 
 
@@ -164,7 +165,7 @@ def _stage(where, i, table, folder) -> Stage:
     label = table.get("name", "")
     duration = table.get("duration")
     if duration is not None:
-        duration = _number(where, part, "duration", duration, 0.0, lo_open=True, unit="s")
+        duration = _number(where, part, "duration", duration, 0.0, lo_open=True, hi=MAX_DURATION, unit="s")
     elif kind != "sampled":
         raise where.error(part, "duration", "required (s)")
     try:
@@ -173,8 +174,9 @@ def _stage(where, i, table, folder) -> Stage:
             interp = _text(where, part, "interpolation", table.get("interpolation", "linear"), ("linear", "hold"))
             wf = Sampled(t, v, hold=interp == "hold")
             if duration is None:
-                if not t[-1] > 0:
-                    raise where.error(part, "duration", f"required: the samples end at {t[-1]:g} s")
+                if not 0 < t[-1] <= MAX_DURATION:
+                    raise where.error(part, "duration", f"required: the samples end at {t[-1]:g} s (expected a "
+                                                        f"duration > 0 and <= {MAX_DURATION:g} s)")
                 duration = float(t[-1])
             return Stage(wf, duration, label)
         if "voltage" not in table:
@@ -239,7 +241,11 @@ def from_toml(text: str, folder=None, source="protocol") -> Protocol:
     stages = data.get("stage")
     if not isinstance(stages, list) or not stages:
         raise where.error("", "stage", "no stages: a protocol file needs at least one [[stage]] table")
-    proto = Protocol([_stage(where, i, s, folder) for i, s in enumerate(stages)])
+    stages = [_stage(where, i, s, folder) for i, s in enumerate(stages)]
+    try:
+        proto = Protocol(stages)
+    except WaveformError as exc:        # the whole protocol's checks (its total duration)
+        raise WaveformError(f"{source}: {exc}") from None
     if "load" in data:
         proto.load = _load(where, data["load"], folder)
     return proto

@@ -269,7 +269,8 @@ def read_layout(folder) -> Layout:
     named = {}
     for c, v in out.columns.items():
         if v.strip().lower() in named:
-            raise RecordingError(f"{CONFIG}: [columns] {named[v.strip().lower()]} and {c} both name {v!r}")
+            raise RecordingError(f"{CONFIG}: [columns] {named[v.strip().lower()]} and {c} both name {v!r}; expected "
+                                 f"one column of the file per name")
         named[v.strip().lower()] = c
     for c, v in data.get("units", {}).items():
         u = _text("units", c, v).strip().lower()
@@ -327,7 +328,8 @@ def _select(path, names, layout, where, found, time_optional=False) -> dict:
         if want in norm:
             cols[c] = norm.index(want)
         elif c in layout.columns and not (c == "time" and time_optional):
-            raise RecordingError(f"{where}: [columns] {c} = {layout.columns[c]!r} ({CONFIG}) is not in {found}")
+            raise RecordingError(f"{where}: [columns] {c} = {layout.columns[c]!r} ({CONFIG}) is not in {found}; "
+                                 f"expected one of its columns")
     missing = [c for c in REQUIRED if c not in cols and not (c == "time" and time_optional)]
     if missing:
         raise RecordingError(f"{where}: missing column(s) {', '.join(missing)} in {found} (expected "
@@ -336,7 +338,7 @@ def _select(path, names, layout, where, found, time_optional=False) -> dict:
     dup = sorted({c for c, j in cols.items() if norm.count(norm[j]) > 1}, key=(REQUIRED + OPTIONAL).index)
     if dup:
         raise RecordingError(f"{where}: column(s) {', '.join(names[cols[c]].strip() for c in dup)} appear more "
-                             f"than once")
+                             f"than once; expected each once")
     return cols
 
 
@@ -390,7 +392,7 @@ def _rows(path, lines, first, delim):
             line = first + reader.line_num - 1
             what = (f"a field longer than {csv.field_size_limit()} characters (no value of a recording is)"
                     if "field larger than field limit" in str(exc) else f"not readable as CSV ({exc})")
-            raise RecordingError(f"{_where(path, line)}: {what}") from None
+            raise RecordingError(f"{_where(path, line)}: {what}; expected one number per field") from None
         yield first + reader.line_num - 1, row
 
 
@@ -411,7 +413,7 @@ def read_csv(path, x_e: float | None = None, layout: Layout | None = None) -> Re
     while k < len(lines) and (not lines[k].strip() or lines[k].lstrip().startswith("#")):
         k += 1
     if k == len(lines):
-        raise RecordingError(f"{path.name}: empty (no header row '{','.join(REQUIRED)}')")
+        raise RecordingError(f"{path.name}: empty; expected a header row '{','.join(REQUIRED)}' and the samples")
     # the delimiter: a comma, else what the header row uses (a semicolon or a tab, as
     # spreadsheets with a decimal comma and some DAQ exports write)
     delim = "," if "," in lines[k] else next((d for d in (";", "\t") if d in lines[k]), ",")
@@ -429,7 +431,8 @@ def read_csv(path, x_e: float | None = None, layout: Layout | None = None) -> Re
             scale, units_row = _units(path, i, row, cols, layout), i
             continue
         if len(row) < len(header):
-            raise RecordingError(f"{_where(path, i)}: {len(row)} values, the header has {len(header)} columns")
+            raise RecordingError(f"{_where(path, i)}: {len(row)} values, the header has {len(header)} columns; "
+                                 f"expected a value in each")
         vals = []
         for c, j in cols.items():
             s = row[j].strip()
@@ -658,7 +661,8 @@ def _check_units(rec: Recording, x_e: float | None = None) -> None:
         i = int(np.argmax(np.abs(rec.voltage)))
         raise RecordingError(f"{_where(p, rec.line[i])}: voltage peaks at {rec.voltage[i]:g}; SI units (V) expected, "
                              f"this looks like kilovolts" if vmax > 0 else
-                             f"{p.name}: the voltage is 0 throughout: nothing was applied")
+                             f"{p.name}: the voltage is 0 throughout: nothing was applied; expected the drive's "
+                             f"voltage (V)")
     fmax = float(np.max(np.abs(rec.force)))
     if fmax > MAX_FORCE:
         i = int(np.argmax(np.abs(rec.force)))
@@ -725,11 +729,12 @@ def _interpret(rec: Recording) -> None:
         if off.size and off.max() > LEVEL_TOL * A:
             j = int(a + (1 if len(seg) > 3 else 0) + np.argmax(off))
             raise RecordingError(f"{_where(p, rec.line[j])}: voltage {v[j]:g} V at {t[j]:g} s is off every level of "
-                                 f"this recording (+{A:g}, 0, -{A:g} V, within {LEVEL_TOL:.0%}): the voltage column "
-                                 f"contradicts itself")
+                                 f"this recording: expected +{A:g}, 0 or -{A:g} V within {LEVEL_TOL:.0%} between "
+                                 f"switches (the voltage column contradicts itself)")
         levels.append(float(np.mean(core)) if s != 0 else 0.0)
     if levels[-1] == 0.0:
-        raise RecordingError(f"{p.name}: the voltage ends at 0 V (from {edges[-2]:g} s): no hold stage to fit")
+        raise RecordingError(f"{p.name}: the voltage ends at 0 V (from {edges[-2]:g} s): no hold stage to fit; "
+                             f"expected a recording that ends in its hold")
     rec.amplitude = A
     rec.hold_voltage = levels[-1]
     rec.reset_end = float(edges[-2])
@@ -771,7 +776,7 @@ def read_dataset(folder) -> Dataset:
         raise RecordingError(f"{folder}: not a folder")
     toml = folder / "actuator.toml"
     if not toml.is_file():
-        raise RecordingError(f"{folder}: no actuator.toml (the parameter file of the device)")
+        raise RecordingError(f"{folder}: no actuator.toml; expected the parameter file of the device there")
     try:
         params = load_parameters(toml)
     except ParameterError as exc:
@@ -781,8 +786,8 @@ def read_dataset(folder) -> Dataset:
     if not files:
         # without a dataset.toml only CSV is read (the contract): say so when binary files lie there
         binary = [] if layout.source else sorted(f.name for f in folder.iterdir() if f.suffix.lower() in BINARY)
-        raise RecordingError(f"{folder}: no recordings ({', '.join(layout.include)})" + (
-            f"; {binary[0]}{' ...' if len(binary) > 1 else ''} is read when the folder has a {CONFIG}" if binary
+        raise RecordingError(f"{folder}: no recordings ({', '.join(layout.include)}); expected one file per test" + (
+            f" ({binary[0]}{' ...' if len(binary) > 1 else ''} is read when the folder has a {CONFIG})" if binary
             else ""))
     stems = {}
     for f in files:

@@ -140,13 +140,16 @@ class StrokeTrace:
         return self._primitive(b) - self._primitive(a)
 
     def mean(self, a, b):
-        """Time mean of x over [a, b]; x(a) where the window is empty."""
+        """Time mean of x over [a, b]; x(a) where the window is empty. Within the window's
+        extrema: the difference of the primitive rounds, and a stroke resting on its stop
+        must not average to a hair beyond it."""
         a = np.asarray(a, float)
         b = np.asarray(b, float)
         width = b - a
         with np.errstate(invalid="ignore", divide="ignore"):
             m = self.integral(a, b) / width
-        return np.where(width > 0, m, self(a))
+        lo, hi = self.extrema(a, b)
+        return np.where(width > 0, np.clip(m, lo.reshape(m.shape), hi.reshape(m.shape)), self(a))
 
     def extrema(self, a, b):
         """(min, max) of x over each window [a, b] (vectorised)."""

@@ -28,9 +28,9 @@ def _finite(name, value, lo=None, lo_incl=True, hi=None):
         raise WaveformError(f"{name}: got {value!r}, expected a finite number")
     if lo is not None and (value < lo or (value == lo and not lo_incl)):
         rng = f"{'>=' if lo_incl else '>'} {lo:g}" + (f" and <= {hi:g}" if hi is not None else "")
-        raise WaveformError(f"{name}: got {value:g}, expected a value {rng}")
-    if hi is not None and value > hi:
-        raise WaveformError(f"{name}: got {value:g}, expected a value <= {hi:g}")
+        raise WaveformError(f"{name}: got {value!r}, expected a value {rng}")
+    if hi is not None and value > hi:      # every digit: 10000001.0, not 1e+07, against <= 1e+07
+        raise WaveformError(f"{name}: got {value!r}, expected a value <= {hi:g}")
     return value
 
 

@@ -50,14 +50,20 @@ def _diagnose(args, ds, out) -> int:
     t0 = time.perf_counter()
     say = None if args.quiet else (lambda s: print(f"[{time.perf_counter() - t0:6.1f} s] {s}", file=sys.stderr,
                                                    flush=True))
+    client = None
     if args.scheduler:
-        from distributed import Client
-        client = Client(args.scheduler)
+        # the CLI's own connection: one line naming --scheduler if it is not reached in time
+        from dfa_model.cli import _dask_executor
+        client = _dask_executor(args.scheduler)
         executor = client.get_executor()
     else:
         executor = local_executor(args.workers)
-    with owned_pool(executor) if not args.scheduler else contextlib.nullcontext():
-        D = diagnose(ds, executor=executor, progress=say)
+    try:
+        with owned_pool(executor) if not args.scheduler else contextlib.nullcontext():
+            D = diagnose(ds, executor=executor, progress=say)
+    finally:
+        if client is not None:
+            client.close()
     report = write(D, args.out)
     print(f"{report['conclusion']}; baseline held-out RMSE "
           f"{_um(D.baseline.heldout_rmse)}, improved {_um(D.final.heldout_rmse) if D.improved else '-'}; "

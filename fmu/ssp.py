@@ -72,7 +72,7 @@ def build_system(params: P.Parameters | None = None, out: str | os.PathLike = "D
     drive_start = drive_files = load_start = None
     if drive is not None:
         drive_start, drive_files = drive_setup(drive, drive_source)
-        load_start = load_setup(drive)
+        load_start = load_setup(drive, drive_source)
     with tempfile.TemporaryDirectory(prefix="dfa_ssp_") as tmp:
         tmp = Path(tmp)
         files = {"actuator": build_fmu(params, tmp / COMPONENTS["actuator"][0]),
@@ -113,26 +113,28 @@ def drive_setup(drive: Protocol, source: str | None = None) -> tuple[dict, dict]
     return start, {PROTOCOL_FILE: json.dumps(data).encode()}
 
 
-def load_setup(drive: Protocol) -> dict | None:
+def load_setup(drive: Protocol, source: str | None = None) -> dict | None:
     """The load FMU's start values for the protocol's [load]: a constant force F > 0
     hangs a mass F / g (the mass-spring's rest force m g = F); None without a [load]
-    (the default 0.51 kg). What a hanging mass cannot be is a BuildError naming [load]."""
+    (the default 0.51 kg). What a hanging mass cannot be is a BuildError naming the
+    protocol file (`source`) and [load]."""
     from .build import BuildError
     from .mass_spring_load import G
     load = drive.load
     if load is None:
         return None
+    where = f"{source}: [load]" if source else "[load]"
     what = "the system's load FMU is a mass hanging on a spring (rest force m g)"
     if load.k_load != 0:
-        raise BuildError(f"[load]: k_load = {load.k_load:g} N/m: {what}, it has no load spring; remove k_load "
+        raise BuildError(f"{where}: k_load = {load.k_load:g} N/m: {what}, it has no load spring; remove k_load "
                          f"(dfa simulate --protocol plays it)")
     if isinstance(load.F, Sampled) or callable(load.F):
-        raise BuildError(f"[load]: a sampled force: {what}, a constant weight; give a constant force "
+        raise BuildError(f"{where}: a sampled force: {what}, a constant weight; expected a constant force "
                          f"(dfa simulate --protocol plays it)")
     F = float(load.F)
     if not F > 0:
-        raise BuildError(f"[load]: force = {F:g} N: {what}, its weight is > 0; give force > 0, or no [load] for "
-                         f"the default 0.51 kg")
+        raise BuildError(f"{where}: force = {F:g} N: {what}, its weight is > 0; expected force > 0, or no [load] "
+                         f"for the default 0.51 kg")
     return {"mass": F / G}
 
 

@@ -79,7 +79,9 @@ def cmd_compare(args) -> int:
     proto = base._protocol(args)
     if args.plot:
         check_writable("--plot", args.plot, base.PLOT_FORMATS)
-    row = compare(s, proto, base._load(args, proto))
+    from .design_cli import surrogate_errors
+    with surrogate_errors(args.model):
+        row = compare(s, proto, base._load(args, proto))
     if args.plot:
         plot(row, args.plot)
     out = {k: json_safe(row[k]) for k in KEYS}

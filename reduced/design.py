@@ -33,7 +33,8 @@ margin above the edge, the least power). `verify=True` runs the full model
 (dfa_model.simulate) on the same drive over the whole horizon at the recommended
 frequency; where it misses the limits the recommendation moves into the window by steps
 of 1.25x (at most 6, each checked on the full model) and the reason says so: the answer
-holds on the full model or is flagged (verified['meets'] False).
+holds on the full model or is flagged (verified['meets'] False). A horizon of more than
+VERIFY_PERIODS periods is not checked (verified None, and the reason says so).
 
 Power, two quantities (`power`, W):
     hard_switched_dissipation  4 f C V^2: a source that switches hard (no ramps) moves
@@ -59,6 +60,9 @@ from . import averaged
 SHARE_RANGE = (0.3, 0.7)   # share of the period at +V the design takes
 REFINE = 0.02     # relative width at which an edge's bisection stops
 VERIFY_STEP, VERIFY_TRIES = 1.25, 6   # a recommendation the full model rejects moves this way into the window
+# the full model's check runs the whole horizon: at most this many periods (seconds at N = 81
+# even with ramps, a sixth of the step limit); a longer one is not checked, and the reason says so
+VERIFY_PERIODS = 20_000
 
 
 @dataclass
@@ -248,7 +252,10 @@ def design_inversion(s, V, F, max_ripple, max_drift, horizon, slew_rate=None, cu
                      "(README, 'Surrogates'); trust the full model's check (verified)")
     frequency = min(f_max, 1.25 * f_min)
     verified, checks = None, []
-    if verify:
+    if verify and frequency * horizon > VERIFY_PERIODS:
+        notes.append(f"not checked on the full model: {frequency * horizon:.3g} periods over the horizon, more than "
+                     f"the {VERIFY_PERIODS} it is run for (replay the drive: dfa simulate --protocol)")
+    elif verify:
         frequency, verified, checks = _verify(params, scan, frequency, f_min, f_max, notes)
         base["checks"] = checks
     rip, dr = scan(frequency)
@@ -387,7 +394,7 @@ def _verify(params, scan: _Scan, frequency, f_min, f_max, notes):
         f = frequency
         for _ in range(VERIFY_TRIES):
             f *= step
-            if not f_min <= f <= f_max:
+            if not f_min <= f <= f_max or f * scan.horizon > VERIFY_PERIODS:
                 break
             checks.append(full_check(params, scan, f))
             if checks[-1]["meets"]:

@@ -3,6 +3,7 @@ surrogate (`--model`, or one fitted and cached per parameter set: model_cache.py
 as a protocol file (`--out`) and drawn (`--plot`)."""
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 
@@ -17,6 +18,26 @@ def add_model_flags(p) -> None:
                    help="a fitted surrogate (dfa reduce --out); default: fit one for the parameters and cache it")
     p.add_argument("--family", choices=["charge", "lumped"], default="charge",
                    help="surrogate family when none is given with --model (default charge)")
+
+
+@contextlib.contextmanager
+def surrogate_errors(name):
+    """A surrogate whose integration stops (reduced.SurrogateError: maps that are not an
+    actuator's, as in a damaged file) is an error of the command naming where the
+    surrogate came from (`name`: its file, or the parameters it was fitted for), as the
+    full model's SolverError is: one line, exit 2."""
+    from .surrogate import SurrogateError
+    try:
+        yield
+    except SurrogateError as exc:
+        raise base.CLIError(f"{name}: {exc}; expected a surrogate that runs this drive (a damaged file: fit it again "
+                            f"with dfa reduce)") from None
+
+
+def surrogate_source(args) -> str:
+    """Where a command's surrogate came from, for its errors: --model's file, or the
+    parameters it was fitted for."""
+    return args.model or args.params or f"--preset {args.preset}"
 
 
 def params_and_surrogate(args, say):
@@ -105,8 +126,9 @@ def design_command(args) -> int:
         check_writable("--plot", args.plot, PLOT_FORMATS)
     out = sys.stderr if args.json else sys.stdout     # --json: stdout is the JSON alone
     p, s, note = params_and_surrogate(args, lambda text: print(f"dfa: {text}", file=sys.stderr))
-    d = design_inversion(s, args.voltage, args.force, args.max_ripple, args.max_drift, args.horizon,
-                         slew_rate=args.slew_rate, current_limit=args.current_limit, params=p)
+    with surrogate_errors(surrogate_source(args)):
+        d = design_inversion(s, args.voltage, args.force, args.max_ripple, args.max_drift, args.horizon,
+                             slew_rate=args.slew_rate, current_limit=args.current_limit, params=p)
     src = args.params or (f"preset {args.preset}" if args.preset else args.model)
     print(f"full-duty polarity inversion at {d.V:g} V, {d.F:g} N, held {d.horizon:g} s ({s.family} surrogate; "
           f"{note})", file=out)
@@ -139,7 +161,9 @@ def design_command(args) -> int:
                 "--params FILE"
             print(f"  wrote {written[0]} (replay: dfa simulate {who} --protocol {written[0]} --json)", file=out)
         else:
-            print("dfa: error: --out: nothing written: no drive meets the limits", file=sys.stderr)
+            # the design ran and is reported (the reason above, the JSON): not an input error (exit 2)
+            # but a request it could not meet, as a sweep with failed runs: a warning and exit 1
+            print("dfa: warning: --out: nothing written: no drive meets the limits", file=sys.stderr)
             rc = 1
     if args.plot:
         from .design import check_edges

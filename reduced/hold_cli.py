@@ -34,9 +34,19 @@ def add_hold_parser(subparsers):
     return ph
 
 
+# holding.py names its arguments; the command's errors name the flags that set them
+FLAGS = {"x_ref": "--stroke", "F": "--force", "duration": "--duration", "frequency": "--frequency", "dt": "--dt"}
+
+
+def _flag_error(exc) -> base.CLIError:
+    """A holding.py ValueError ('x_ref: ...') as the command's error, named by its flag."""
+    name, sep, rest = str(exc).partition(": ")
+    return base.CLIError(f"{FLAGS[name]}: {rest}" if sep and name in FLAGS else str(exc))
+
+
 def cmd_hold(args) -> int:
     from .frozen import as_model
-    from .holding import compare_hold, tune_hold_controller
+    from .holding import check_hold, compare_hold, tune_hold_controller
     if args.plot:
         check_writable("--plot", args.plot, base.PLOT_FORMATS)
     def checked(p):
@@ -51,13 +61,17 @@ def cmd_hold(args) -> int:
     model = checked(p)
     try:
         c = tune_hold_controller(s, args.stroke, args.force, frequency=args.frequency, dt_control=args.dt)
+        check_hold(c, args.duration)        # before the three runs on the full model
     except ValueError as exc:
-        raise base.CLIError(str(exc)) from None
+        raise _flag_error(exc) from None
     out = sys.stderr if args.json else sys.stdout     # --json: stdout is the JSON alone
     print(f"PI loop tuned on the {s.family} surrogate ({note}) at {args.stroke * 1e3:g} mm, {args.force:g} N: "
           f"kp {c.kp:.4g} V/m, ki {c.ki:.4g} V/(m s), feedforward {c.v_ff:.0f} V, inversion {c.frequency:g} Hz; "
           f"phase margin {c.phase_margin:.0f} deg, crossover {c.gain_crossover:.3g} rad/s", file=out)
-    cmp = compare_hold(model, c, args.duration)
+    try:
+        cmp = compare_hold(model, c, args.duration)
+    except ValueError as exc:
+        raise _flag_error(exc) from None
     print(f"full model, {args.duration:g} s hold (deviation from the commanded stroke after 2 s):", file=out)
     print(f"  {'scheme':16s} {'rms um':>9s} {'max um':>9s} {'drift um':>9s} {'mean |V|':>9s} {'P_hs mW':>9s}", file=out)
     for name, m in cmp["metrics"].items():

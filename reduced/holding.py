@@ -51,7 +51,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from dfa_model import DFAModel
+from dfa_model import DFAModel, limits
 from dfa_model.parameters import Parameters
 from dfa_model.stepper import OUTPUTS, Stepper
 
@@ -128,7 +128,12 @@ def feedforward_voltage(s_or_params, x_ref, F, v_lo=100.0, v_hi=None):
                 return float(equilibrium_stroke(s_or_params, V, F, warn=False))
     v_hi = v_hi or 50_000.0
     if stroke(v_hi) < x_ref:
-        raise ValueError(f"x_ref = {x_ref:g} m is not reachable below {v_hi:g} V under {F:g} N")
+        raise ValueError(f"x_ref: {x_ref:g} m is not reachable below {v_hi:g} V under {F:g} N; expected a smaller "
+                         f"stroke (or load)")
+    x_lo = stroke(v_lo)
+    if x_lo > x_ref:        # the load pulls it further already (a negative force), or x_ref is tiny
+        raise ValueError(f"x_ref: {x_ref:g} m is below the stroke {x_lo:g} m that {v_lo:g} V already holds under "
+                         f"{F:g} N; expected a larger stroke (or load)")
     return float(brentq(lambda V: stroke(V) - x_ref, v_lo, v_hi, xtol=1e-6))
 
 
@@ -164,13 +169,15 @@ def tune_hold_controller(s, x_ref: float, F: float, bandwidth: float | None = No
     _polarity(mode, frequency, dt_control)      # before tuning: a step that cannot switch is an input error
     v_ff = feedforward_voltage(s, x_ref, F)
     if v_ff > v_max:
-        raise ValueError(f"x_ref needs {v_ff:.0f} V, above v_max = {v_max:g} V")
+        raise ValueError(f"x_ref: {x_ref:g} m needs {v_ff:.0f} V, above v_max = {v_max:g} V; expected a smaller stroke "
+                         f"(or load)")
     lin = s.linearize(v_ff, F, freeze_charge=True)
     G = control.ss2tf(lin.A, lin.B[:, :1], lin.C[:1, :], lin.D[:1, :1])
     g = float(np.real(control.dcgain(G)))
     pole = float(np.min(np.abs(np.real(control.poles(G)))))
     if not g > 0:
-        raise ValueError(f"the plant gain dx/dV at {v_ff:.0f} V is {g:g}: no stroke control there")
+        raise ValueError(f"x_ref: the plant gain dx/dV at {x_ref:g} m ({v_ff:.0f} V) is {g:g}: no stroke control "
+                         f"there; expected a stroke the voltage moves")
     wc = bandwidth if bandwidth is not None else min(pole / 10.0, 2 * math.pi * frequency / 10.0, 0.2 / dt_control)
     ki = wc / g
     kp = ki / pole
@@ -182,21 +189,23 @@ def tune_hold_controller(s, x_ref: float, F: float, bandwidth: float | None = No
                          dt_control, "zoh")
     # in state space: a 15-state plant turned into a transfer function loses its poles near z = 1
     L = control.ss(_pi_tf(kp, ki, dt_control)) * control.ss(Gd)
-    gm, pm, wcg, wcp = _margins(L)
+    gm, pm, wcg, wcp = _margins(L, wc / 100.0)
     return HoldController(kp=float(kp), ki=float(ki), v_ff=v_ff, v_max=float(v_max), dt=float(dt_control), mode=mode,
                           frequency=float(frequency), x_ref=float(x_ref), F=float(F), plant_gain=g, plant_pole=pole,
                           crossover=float(wc), gain_margin=float(gm), phase_margin=float(pm),
                           gain_crossover=float(wcp), phase_crossover=float(wcg))
 
 
-def _margins(L):
+def _margins(L, w_low=math.inf):
     """(gain margin, phase margin in deg, phase crossover, gain crossover in rad/s) of the
-    sampled loop L, from its response on (0, pi/dt], Nyquist included. control.margin is
-    not used: the PI's integrator puts a pole at z = 1, where it reports a spurious phase
-    crossover at w = 0 (gain margin ~1e-16 for a stable loop), and it misses the crossover
-    at the Nyquist frequency, where a sampled loop's phase often reaches -180 deg."""
+    sampled loop L, from its response on (0, pi/dt], Nyquist included, on a log grid from
+    min(1e-7 pi/dt, w_low): w_low lies below the crossover the loop was tuned for, which a
+    short step's 1e-7 pi/dt would miss (a NaN crossover). control.margin is not used: the
+    PI's integrator puts a pole at z = 1, where it reports a spurious phase crossover at
+    w = 0 (gain margin ~1e-16 for a stable loop), and it misses the crossover at the
+    Nyquist frequency, where a sampled loop's phase often reaches -180 deg."""
     w_n = math.pi / L.dt
-    w = w_n * np.logspace(-7, 0, 20001)
+    w = np.geomspace(min(w_n * 1e-7, w_low), w_n, 20001)
     resp = np.asarray(L(np.exp(1j * w * L.dt))).ravel()
     mag, ph = np.abs(resp), np.degrees(np.unwrap(np.angle(resp)))
     ph -= 360.0 * round(ph[0] / 360.0 + 0.25)       # the integrator's -90 deg at low frequency
@@ -314,6 +323,9 @@ def _samples(duration, dt, mode, frequency):
     n = round(duration / dt)
     if n < 1 or abs(n * dt - duration) > 1e-9 * duration:
         raise ValueError(f"duration: expected a positive multiple of dt = {dt:g} s, got {duration!r}")
+    # each control step is at least one step of the model (a Python call on the full model)
+    limits.check_segments("dt", n, f"{duration:g} s in control steps of {dt:g} s; expected a larger dt or a shorter "
+                                   f"duration")
     return n, _polarity(mode, frequency, dt)
 
 
@@ -428,6 +440,16 @@ def simulate_hold_surrogate(s, controller: HoldController | float, x_ref: float 
                       np.full(n + 1, float(F)), out[:, 4].copy(), C, wall_time=wall)
 
 
+def check_hold(controller: HoldController, duration: float, t_skip: float = 2.0) -> None:
+    """ValueError naming the argument unless compare_hold can run `controller` for
+    `duration` s: longer than t_skip (the metrics are taken after it), a whole number of
+    its control steps, and within the stated limit of steps (limits.MAX_SEGMENTS)."""
+    if not duration > t_skip:
+        raise ValueError(f"duration: got {duration:g} s, expected more than t_skip = {t_skip:g} s (the metrics are "
+                         f"taken after the first {t_skip:g} s)")
+    _samples(duration, controller.dt, controller.mode, controller.frequency)
+
+
 def compare_hold(params_or_model, controller: HoldController, duration: float = 300.0, *, x_ref=None, F=None,
                  t_skip: float = 2.0, include_dc_loop: bool = False, v_open: float | None = None) -> dict:
     """The same long hold on the full model under: open-loop DC at v_open, fixed-frequency
@@ -435,6 +457,7 @@ def compare_hold(params_or_model, controller: HoldController, duration: float = 
     include_dc_loop also the DC amplitude-adaptation loop (same gains, mode 'dc').
     v_open: default the full model's static voltage for x_ref under the initial load.
     Returns {'v_open', 'x_ref', 'runs': {name: HoldResult}, 'metrics': {name: dict}}."""
+    check_hold(controller, duration, t_skip)
     model = params_or_model if isinstance(params_or_model, DFAModel) else DFAModel(params_or_model)
     x_ref = controller.x_ref if x_ref is None else x_ref
     F = controller.F if F is None else F

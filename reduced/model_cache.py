@@ -56,8 +56,8 @@ def check_same_device(s, params: Parameters, model_name: str, params_name: str) 
     if device:
         shown = "; ".join(f"{k} = {va!r} in {model_name}, {vb!r} in {params_name}" for k, va, vb in device[:4])
         more = f" (and {len(device) - 4} more)" if len(device) > 4 else ""
-        raise ValueError(f"--model: {model_name} is a surrogate of another device: {shown}{more}. Fit one for these "
-                         f"parameters: dfa reduce --params FILE --out MODEL, or leave --model out")
+        raise ValueError(f"--model: {model_name} is a surrogate of another device: {shown}{more}; expected one of "
+                         f"these parameters: fit it with dfa reduce --params FILE --out MODEL, or leave --model out")
     if disc:
         return ("the surrogate was fitted at " + ", ".join(f"{k} = {va!r}" for k, va, _ in disc) +
                 f"; the full-model checks run at " + ", ".join(f"{k} = {vb!r}" for k, _, vb in disc))

@@ -46,8 +46,9 @@ def pytest_terminal_summary(terminalreporter):
         kinds = ", ".join(f"{k[6:]} {v}" for k, v in sorted(COUNTS.items()) if k.startswith("cases:"))
         terminalreporter.write_line(
             f"fuzz: {COUNTS['cases']} cases ({kinds}): {COUNTS['clean errors']} clean errors, {COUNTS['results']} "
-            f"results ({COUNTS['with warnings']} with warnings), {COUNTS['sweeps with failed cases']} sweeps "
-            f"with failed cases; 0 tracebacks, internal errors or NaN (else a test failed)")
+            f"results ({COUNTS['with warnings']} with warnings), {COUNTS['partial results (exit 1)']} partial "
+            f"results (exit 1: a sweep's failed runs, a design with nothing to write); 0 tracebacks, internal "
+            f"errors or NaN (else a test failed)")
         for k, v in sorted(COUNTS.items()):
             if k.startswith(("errors:", "results:")):
                 terminalreporter.write_line(f"fuzz:   {k} {v}")

@@ -129,7 +129,7 @@ def test_dfa_diagnose_bad_dataset_is_one_line(tmp_path, capsys):
     (tmp_path / "actuator.toml").write_text(NOMINAL.to_toml())
     assert main(["diagnose", str(tmp_path), "--out", str(tmp_path / "out")]) != 0
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"dfa: error: {tmp_path}: no recordings (*.csv)"]
+    assert err == [f"dfa: error: {tmp_path}: no recordings (*.csv); expected one file per test"]
     assert not (tmp_path / "out").exists()
 
 

@@ -161,8 +161,8 @@ def test_without_dataset_toml_only_csv_is_read(sim, folder):
     when it is all there is."""
     c = sim.columns()
     write_h5(folder / "b.h5", c, group="/", names={k: k for k in LAB}, stroke_mm=False)
-    with pytest.raises(RecordingError, match=r"no recordings \(\*\.csv\); b\.h5 is read when the folder has a "
-                                             r"dataset\.toml$"):
+    with pytest.raises(RecordingError, match=r"no recordings \(\*\.csv\); expected one file per test \(b\.h5 is read "
+                                             r"when the folder has a dataset\.toml\)$"):
         read_dataset(folder)
     sim.to_csv(folder / "a.csv")
     assert [r.path.name for r in read_dataset(folder).recordings] == ["a.csv"]
@@ -178,7 +178,8 @@ def test_without_dataset_toml_only_csv_is_read(sim, folder):
     ("[columns]\nvolts = 'HV'\n", r"^dataset\.toml: unknown key \[columns\] volts; allowed: time, voltage, force, "
                                   r"stroke, current$"),
     ("[columns]\nvoltage = 3\n", r"^dataset\.toml: \[columns\] voltage = 3: text expected$"),
-    ("[columns]\nvoltage = 'A'\nforce = 'a'\n", r"^dataset\.toml: \[columns\] voltage and force both name 'a'$"),
+    ("[columns]\nvoltage = 'A'\nforce = 'a'\n", r"^dataset\.toml: \[columns\] voltage and force both name 'a'; "
+                                                r"expected one column of the file per name$"),
     ("[units]\nvoltage = 'kQ'\n", r"^dataset\.toml: \[units\] voltage = 'kQ': not a unit of voltage; allowed: v, kv$"),
     ("[units]\nspeed = 'm/s'\n", r"^dataset\.toml: unknown key \[units\] speed; allowed: time, voltage"),
     ("[files]\ninclude = '*.csv'\n", r"^dataset\.toml: \[files\] include = '\*\.csv': a list of patterns expected"),
@@ -201,7 +202,8 @@ def test_a_mapped_column_missing_from_a_file(sim, folder):
     (folder / "dataset.toml").write_text(MAPPING.replace("Laser", "LVDT"))
     lab_csv(folder / "a.csv", sim.columns())
     with pytest.raises(RecordingError, match=r"^a\.csv, row 2: \[columns\] stroke = 'LVDT' \(dataset\.toml\) is not "
-                                             r"in the header 'Time \(s\),HV monitor,Load cell,Laser'$"):
+                                             r"in the header 'Time \(s\),HV monitor,Load cell,Laser'; expected one of "
+                                             r"its columns$"):
         read_dataset(folder)
 
 
@@ -321,7 +323,8 @@ def test_tdms_errors_name_the_field(sim, tmp_path):
     with pytest.raises(RecordingError, match=r"^b\.tdms: no time channel \('time'\) and no wf_increment property"):
         read_tdms(tmp_path / "b.tdms")
     with pytest.raises(RecordingError, match=r"^b\.tdms: \[columns\] force = 'Load cell' \(dataset\.toml\) is not in "
-                                             r"the channels of group 'Analog' \(voltage, force, stroke\)$"):
+                                             r"the channels of group 'Analog' \(voltage, force, stroke\); expected one "
+                                             r"of its columns$"):
         read_tdms(tmp_path / "b.tdms", layout=Layout(columns={"force": "Load cell"}))
     nptdms = pytest.importorskip("nptdms")
     chans = [nptdms.ChannelObject("Analog", k, c[k], properties={"wf_increment": dt})
