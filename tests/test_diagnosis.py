@@ -224,3 +224,19 @@ def test_the_data_choose_the_spline_knots(monkeypatch):
     assert search([NS(bic=-1.0, heldout_rmse=1.05e-7, sigma=1e-7)]) == (first, []) and not starts
     assert search([NS(bic=+1.0, heldout_rmse=1.05e-7, sigma=1e-7)])[0].params.n_knots == 4
     assert search([NS(bic=-1.0, heldout_rmse=3e-7, sigma=1e-7)])[0].params.n_knots == 4
+
+
+def test_a_job_carries_evenly_spaced_sample_times_in_three_numbers():
+    """A run's job carries a 1 kHz recording's times as (t0, dt, n): a Dask scheduler had
+    warned of a 21.6 MiB graph at every batch of 150 recordings. The times it rebuilds are
+    the recording's within 1e-9 of a sample; uneven times travel as they are."""
+    import pickle
+
+    from diagnosis.fit import _times, sample_times
+    t = np.arange(23001) * 1e-3 - 0.1
+    spec = sample_times(t)
+    assert isinstance(spec, tuple) and len(pickle.dumps(spec)) < 100
+    assert np.max(np.abs(_times(spec) - t)) < 1e-12
+    uneven = t.copy()
+    uneven[100] += 2e-4
+    assert sample_times(uneven) is not None and np.array_equal(_times(sample_times(uneven)), uneven)
