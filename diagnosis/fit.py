@@ -183,7 +183,19 @@ class Runner:
         self.runs += len(jobs)
         if self.executor is None:
             return [_run(j) for j in jobs]
-        return list(self.executor.map(_run, jobs))
+        size = max(1, len(jobs) // TASKS)
+        if size == 1:
+            return list(self.executor.map(_run, jobs))
+        chunks = [jobs[i:i + size] for i in range(0, len(jobs), size)]
+        return [x for part in self.executor.map(_run_all, chunks) for x in part]
+
+
+TASKS = 16    # a batch of more runs than this goes to the executor in about this many tasks: 150 recordings
+#               as 150 tasks of 30 ms kept a Dask scheduler and its client at 40 % of a core each
+
+
+def _run_all(jobs):
+    return [_run(j) for j in jobs]
 
 
 def one_blas_thread():

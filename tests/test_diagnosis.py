@@ -240,3 +240,28 @@ def test_a_job_carries_evenly_spaced_sample_times_in_three_numbers():
     uneven = t.copy()
     uneven[100] += 2e-4
     assert sample_times(uneven) is not None and np.array_equal(_times(sample_times(uneven)), uneven)
+
+
+def test_a_large_batch_of_runs_goes_in_few_tasks_in_order():
+    """More runs than TASKS go to the executor in chunks (a scheduler's per-task cost), and
+    come back in the order of the jobs."""
+    import importlib
+    F = importlib.import_module("diagnosis.fit")
+
+    class Counting:
+        tasks = 0
+
+        def map(self, fn, items):
+            items = list(items)
+            Counting.tasks += len(items)
+            return map(fn, items)
+
+    calls = []
+    real = F._run
+    try:
+        F._run = lambda job: calls.append(job) or job * 10
+        out = F.Runner(Counting())(list(range(150)))
+    finally:
+        F._run = real
+    assert out == [10 * j for j in range(150)] and calls == list(range(150))
+    assert F.TASKS <= Counting.tasks <= 2 * F.TASKS
