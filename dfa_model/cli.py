@@ -256,49 +256,6 @@ def cmd_sweep(args):
     return 0
 
 
-def cmd_fmu_build(args):
-    try:
-        from fmu import BuildError, build_fmu
-    except ImportError as exc:
-        raise CLIError(f"the fmu package is not available ({exc}); install with pip install 'dfa-toolkit[fmu]'")
-    if args.drive is not None and not args.system:
-        raise CLIError("--drive: only with --system (the drive FMU is part of the system; the actuator FMU alone "
-                       "takes its voltage as an input)")
-    if args.fmi == 3 and args.system:
-        raise CLIError("--fmi 3: not with --system (the SSP system's three FMUs are FMI 2.0 co-simulation FMUs); "
-                       "expected --fmi 2, or no --fmi")
-    if not args.preset and not args.params:
-        args.preset = "vshape-table1"
-    p = _params(args)
-    src = args.params or "preset " + args.preset
-    kwargs = {}
-    if args.system:
-        from fmu.ssp import build_system as build
-        drive, load = "the drive electronics", "the load"
-        if args.drive is not None:
-            from .protocol_file import load as load_protocol
-            proto = load_protocol(args.drive)       # a bad file: its own one-line WaveformError (exit 2)
-            kwargs = {"drive": proto, "drive_source": os.path.basename(args.drive)}
-            drive = f"the drive electronics playing {args.drive} for {proto.duration:g} s"
-            if proto.load is not None and isinstance(proto.load.F, (int, float)):   # else build refuses it
-                load = f"the load weighing its [load] force ({proto.load.F:g} N)"
-        default, what = "DFASystem.ssp", (f"SSP 1.0: the actuator with parameters from {src}, {drive} "
-                                          f"and {load}, FMI 2.0 co-simulation FMUs; run it with "
-                                          f"fmpy.ssp.simulation.simulate_ssp or OMSimulator")
-    else:
-        build = build_fmu
-        kwargs = {"fmi": args.fmi}
-        default, what = "DFAActuator.fmu", (f"FMI {args.fmi}.0 co-simulation; inputs voltage, force; parameters "
-                                            f"from {src}")
-    out = args.out or default
-    check_writable("--out", out, (default.rpartition(".")[2],))
-    try:
-        out = build(p, out, **kwargs)
-    except BuildError as exc:
-        raise CLIError(str(exc)) from None
-    print(f"wrote {out} ({what})")
-
-
 def json_safe(v):
     """v for json.dumps: non-finite numbers become null (JSON has no NaN or Infinity),
     NumPy scalars plain Python ones; dicts and lists recursively. One cleaner for every
@@ -344,10 +301,12 @@ def _add_params_flags(ps, preset_help=None):
     ps.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable)")
 
 
-BUILTIN = ("params", "simulate", "sweep", "fmu")
+BUILTIN = ("params", "simulate", "sweep")
 
 
-def build_parser(plugins=True):
+def build_parser(plugins=True, command=None):
+    """The `dfa` parser; plugins: with the commands other packages register (only
+    `command`'s when it names one of them, else all)."""
     ap = _Parser(prog="dfa", description="Dielectric fluid actuator model (continuum RC + 1-DOF mechanics).")
     sub = ap.add_subparsers(dest="command", parser_class=_Parser)
     pp = sub.add_parser("params", help="print a preset or a validated parameter file as TOML")
@@ -377,29 +336,19 @@ def build_parser(plugins=True):
     pw.add_argument("--quiet", action="store_true", help="no progress bar")
     pw.set_defaults(func=cmd_sweep)
 
-    pf = sub.add_parser("fmu", help="FMI 2.0 or 3.0 co-simulation FMU of the model")
-    fsub = pf.add_subparsers(dest="fmu_command", parser_class=_Parser, required=True)
-    pb = fsub.add_parser("build", help="build the FMU (parameter start values from a preset or file)")
-    _add_params_flags(pb, "default: vshape-table1")
-    pb.add_argument("--out", metavar="FILE.fmu", help="default DFAActuator.fmu (with --system: DFASystem.ssp)")
-    pb.add_argument("--system", action="store_true",
-                    help="build the actuator + drive electronics + load co-simulation as an SSP file")
-    pb.add_argument("--drive", metavar="DRIVE.toml",
-                    help="with --system: the drive FMU plays this protocol file, the load weighs its [load] force")
-    pb.add_argument("--fmi", type=int, choices=(2, 3), default=2,
-                    help="FMI version of the FMU: 2 (default, FMI 2.0) or 3 (FMI 3.0 co-simulation; the same model "
-                         "and guarantees)")
-    pb.set_defaults(func=cmd_fmu_build)
     if plugins:
-        _plugins(sub)
+        _plugins(sub, command)
     return ap
 
 
-def _plugins(sub) -> None:
-    """Subcommands of packages built on this one (reduce, compare, design from
-    reduced/), registered under the entry-point group 'dfa.commands'."""
+def _plugins(sub, command=None) -> None:
+    """Commands of the packages built on this one (fmu build; reduce, compare, design,
+    hold; diagnose), registered under the entry-point group 'dfa.commands', each named as
+    typed: only `command`'s is imported when it is one (diagnose imports SciPy's
+    optimizers: 1 s), else all (help, a typo)."""
     from importlib.metadata import entry_points
-    for ep in entry_points(group="dfa.commands"):
+    eps = list(entry_points(group="dfa.commands"))
+    for ep in [ep for ep in eps if ep.name == command] or eps:
         ep.load()(sub)
 
 
@@ -416,11 +365,12 @@ def _main(argv, interrupt):
     try:
         # the plugins' commands (reduce, compare, design, diagnose) import SciPy and
         # python-control: 0.35 s of a warm `dfa simulate`, which needs none of them
-        ap = build_parser(plugins=not (argv and argv[0] in BUILTIN))
+        ap = build_parser(plugins=not (argv and argv[0] in BUILTIN), command=argv[0] if argv else None)
         args = ap.parse_args(argv)
         if not getattr(args, "command", None):
             ap.print_help()
-            raise CLIError("command: required, one of params, simulate, sweep, fmu, reduce, compare, design "
+            raise CLIError("command: required, one of params, simulate, sweep, fmu, reduce, compare, design, hold, "
+                           "diagnose "
                            "(dfa COMMAND --help for more)")
         if getattr(args, "dt", None) == 0:
             args.dt = None

@@ -18,6 +18,16 @@ from dfa_model.fileio import check_writable
 
 
 def register(sub) -> None:
+    """All four commands of this package (the entry points name each: pyproject.toml)."""
+    from .design_cli import add_design_parser
+    from .hold_cli import add_hold_parser
+    register_reduce(sub)
+    register_compare(sub)
+    add_design_parser(sub)
+    add_hold_parser(sub)
+
+
+def register_reduce(sub) -> None:
     pr = sub.add_parser("reduce", help="fit a low-order surrogate to the full model; write it to a file")
     base._add_params_flags(pr)
     pr.add_argument("--family", choices=["charge", "lumped"], default="charge",
@@ -28,17 +38,14 @@ def register(sub) -> None:
     pr.add_argument("--quiet", action="store_true", help="no progress bar")
     pr.set_defaults(func=cmd_reduce)
 
+
+def register_compare(sub) -> None:
     pc = sub.add_parser("compare", help="run the full model and a surrogate on one protocol; errors and speed-up")
     pc.add_argument("model", metavar="MODEL", help="a surrogate file written by dfa reduce")
     base._add_protocol_flags(pc, protocol_file=True)
     pc.add_argument("--plot", metavar="FILE.png", help="both strokes, the error below")
     pc.add_argument("--json", action="store_true", help="print the comparison as one JSON object")
     pc.set_defaults(func=cmd_compare)
-
-    from .design_cli import add_design_parser
-    from .hold_cli import add_hold_parser
-    add_design_parser(sub)
-    add_hold_parser(sub)
 
 
 def cmd_reduce(args) -> int:
