@@ -18,7 +18,7 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 from dfa_model import preset  # noqa: E402
-from dfa_model.synthetic import generate_dataset  # noqa: E402
+from dfa_model.io.synthetic import generate_dataset  # noqa: E402
 
 EFFECTS = {"stiffness": {"k": 300.0}, "null": {}, "t_lz": {"t_lz": 13e-6},
            "combined": {"R_s": 1e6, "chi_p": 0.01, "tau_p": 1.0}}

@@ -24,7 +24,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import numpy as np  # noqa: E402
 
 from dfa_model import preset  # noqa: E402
-from dfa_model.synthetic import Measurement, generate_dataset  # noqa: E402
+from dfa_model.io.synthetic import Measurement, generate_dataset  # noqa: E402
 
 K_TRUE = 300.0
 

@@ -1,5 +1,5 @@
 """Field laws the catalog does not contain (issue 24, item 2), diagnosed on the lab rig:
-a truth law outside the parameter file's forms (dfa_model.synthetic: exponential, power
+a truth law outside the parameter file's forms (dfa_model.io.synthetic: exponential, power
 law, Eq. (21) reaching its floor inside the probed fields), the truth at 4x the fit's N,
 lab channels (diagnosis.proofs.RIGS['lab']: 2 um noise, 15 um sensor zeros, voltage gain
 error, force noise, no rest before the drive), three voltages x three repetitions of the
@@ -22,9 +22,9 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import numpy as np  # noqa: E402
 
 from dfa_model import LinearResistivity, preset  # noqa: E402
-from dfa_model.dielectrics import from_parameters  # noqa: E402
-from dfa_model.recordings import read_dataset  # noqa: E402
-from dfa_model.synthetic import ExponentialResistivity, Measurement, PowerResistivity, generate_dataset  # noqa: E402
+from dfa_model.physics.dielectrics import from_parameters  # noqa: E402
+from dfa_model.io.recordings import read_dataset  # noqa: E402
+from dfa_model.io.synthetic import ExponentialResistivity, Measurement, PowerResistivity, generate_dataset  # noqa: E402
 from diagnosis import diagnose, write_report  # noqa: E402
 from diagnosis.catalog import zipped_field  # noqa: E402
 from diagnosis.fit import local_executor  # noqa: E402

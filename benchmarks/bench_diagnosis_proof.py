@@ -19,7 +19,7 @@ import warnings
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import numpy as np  # noqa: E402
 
-from dfa_model.dielectrics import from_parameters  # noqa: E402
+from dfa_model.physics.dielectrics import from_parameters  # noqa: E402
 from diagnosis.proofs import CASES, DRIVES, E6, RIGS, run  # noqa: E402
 
 

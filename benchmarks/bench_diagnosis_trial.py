@@ -37,7 +37,7 @@ RANGES = {"stiffness": ("k", 15.0, 60.0), "inertia": ("m", 0.02, 0.1), "polariza
 def draw(i: int, seed: int, laws_outside: bool = False) -> dict:
     """Case i of the trial. laws_outside: a field law's truth is drawn among Eq. (21) and
     two forms the catalog does not contain (an exponential and a power law in the field,
-    dfa_model.synthetic), with the same relative slope at the zipped field of 6 kV."""
+    dfa_model.io.synthetic), with the same relative slope at the zipped field of 6 kV."""
     rng = np.random.default_rng([seed, i])
     effect = EFFECTS[i % len(EFFECTS)]            # balanced: every effect and the null alike
     by_voltage = bool(rng.integers(2)) or effect == "field_dependent_resistivity"
@@ -73,8 +73,8 @@ def run_one(case: dict) -> dict:
     warnings.simplefilter("ignore")
     import diagnosis
     from dfa_model import preset
-    from dfa_model.recordings import read_dataset
-    from dfa_model.synthetic import Measurement, generate_dataset
+    from dfa_model.io.recordings import read_dataset
+    from dfa_model.io.synthetic import Measurement, generate_dataset
     from diagnosis.fit import InProcess
     from diagnosis.proofs import DRIVES, RIGS
     rig = RIGS[case.get("rig", "ideal")]
@@ -83,7 +83,7 @@ def run_one(case: dict) -> dict:
     nominal = preset("vshape-table1").replace(N=N, rho_l=3e12)
     law, keys = None, dict(case["truth"])
     if "outside" in keys:          # a law the parameter file cannot express (draw)
-        from dfa_model.synthetic import ExponentialResistivity, PowerResistivity
+        from dfa_model.io.synthetic import ExponentialResistivity, PowerResistivity
         form, s = keys.pop("outside"), keys.pop("s")
         law = ExponentialResistivity(2e12 * math.exp(s), 5.5e7 / s) if form == "exp" else \
             PowerResistivity(2e12, 5.5e7, s, 1e6)

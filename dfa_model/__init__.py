@@ -7,14 +7,16 @@ retention at the film-liquid interface (Maxwell-Wagner-Sillars polarization).
     res.unzipping_speed
 """
 from ._jitcache import refresh as _refresh_jit_cache
+from ._moved import install as _install_moved
 
 _refresh_jit_cache()
+_install_moved(__name__)
 
-from .dielectrics import ConstantResistivity, LinearResistivity, PhysicsWarning, ResistivityLaw  # noqa: E402
-from .model import DFAModel  # noqa: E402
-from .parameters import ParameterError, Parameters, load, preset  # noqa: E402
-from .results import Result  # noqa: E402
-from .solver import SolverError, simulate  # noqa: E402
+from .physics.dielectrics import ConstantResistivity, LinearResistivity, PhysicsWarning, ResistivityLaw  # noqa: E402
+from .physics.model import DFAModel  # noqa: E402
+from .io.parameters import ParameterError, Parameters, load, preset  # noqa: E402
+from .io.results import Result  # noqa: E402
+from .numerics.solver import SolverError, simulate  # noqa: E402
 from .waveforms import DC, Bipolar, Load, Protocol, Sampled, Stage, Unipolar, WaveformError, from_function  # noqa: E402
 
 __all__ = ["ConstantResistivity", "LinearResistivity", "PhysicsWarning", "ResistivityLaw", "DFAModel",

@@ -23,8 +23,10 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).parent
-# modules whose njit functions go into the compiled code (also: what _jitcache hashes)
-KERNEL_MODULES = ("equations", "nodal", "kinematics", "integrator", "kernels", "surrogate_kernel")
+# modules whose njit functions go into the compiled code, under the package (also: what
+# _jitcache hashes); EXPORTS and Kernel name them by their last part
+KERNEL_MODULES = ("physics.equations", "physics.nodal", "physics.kinematics", "numerics.integrator",
+                  "numerics.kernels", "numerics.surrogate_kernel")
 AOT_MODULE = "_kernels_aot"
 
 # The compiled exports: "module.function" -> argument codes, result code. Codes:
@@ -59,7 +61,7 @@ def source_digest() -> str:
     and the builder."""
     h = hashlib.sha256()
     for name in (*KERNEL_MODULES, "_jit", "aot"):
-        h.update((HERE / f"{name}.py").read_bytes())
+        h.update((HERE / f"{name.replace('.', '/')}.py").read_bytes())
     return h.hexdigest()
 
 
@@ -175,7 +177,7 @@ def jit_all():
     for k in _KERNELS:
         if k.dispatcher is None:
             k.dispatcher = numba_njit(**k.options)(k.py_func)
-    pkg = __name__.rsplit(".", 1)[0]
+    pkg = __package__
     for name in KERNEL_MODULES:
         mod = sys.modules.get(f"{pkg}.{name}") or importlib.import_module(f".{name}", pkg)
         for attr, value in list(vars(mod).items()):

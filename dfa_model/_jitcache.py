@@ -10,7 +10,8 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
-KERNEL_MODULES = ("equations", "nodal", "kinematics", "integrator", "kernels", "dielectrics")
+KERNEL_MODULES = ("physics/equations", "physics/nodal", "physics/kinematics", "numerics/integrator",
+                  "numerics/kernels", "numerics/surrogate_kernel")
 
 
 def refresh() -> None:
@@ -21,7 +22,8 @@ def refresh() -> None:
         stamp = cache / "dfa_kernels.sha256"
         if stamp.exists() and stamp.read_text() == digest:
             return
-        for f in list(cache.glob("*.nbi")) + list(cache.glob("*.nbc")):
+        # each module's cache sits in its own folder's __pycache__ (physics/, numerics/)
+        for f in list(here.rglob("__pycache__/*.nbi")) + list(here.rglob("__pycache__/*.nbc")):
             f.unlink()
         cache.mkdir(exist_ok=True)
         stamp.write_text(digest)

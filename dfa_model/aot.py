@@ -52,9 +52,10 @@ def build(out_dir: str | os.PathLike) -> Path:
     cc = CC(_jit.AOT_MODULE)
     cc.output_dir = str(out_dir)
     cc.verbose = False
+    where = {m.rpartition(".")[2]: m for m in _jit.KERNEL_MODULES}
     for qualname, (args, result) in _jit.EXPORTS.items():
         module, name = qualname.split(".")
-        fn = getattr(importlib.import_module(f".{module}", __package__), name)
+        fn = getattr(importlib.import_module(f".{where[module]}", __package__), name)
         sig = codes[result](*(codes[c] for c in args.split()))
         cc.export(_jit.export_name(qualname), sig)(fn.py_func)
     # the sources this build is of (_jit compares it with the current ones)

@@ -17,9 +17,10 @@ import sys
 import time
 import warnings
 
-from . import limits, parameters
-from .dielectrics import PhysicsWarning
-from .fileio import PLOT_FORMATS, OutputError, check_writable
+from . import limits
+from .io import parameters
+from .physics.dielectrics import PhysicsWarning
+from .io.fileio import PLOT_FORMATS, OutputError, check_writable
 
 EXIT_USAGE, EXIT_SOFTWARE = 2, 70
 SCHEDULER_TIMEOUT = 10.0     # s to reach a dask scheduler
@@ -87,7 +88,7 @@ def _protocol(args):
                  and not (k == "waveform" and args.waveform == "dc") and not (k == "reset" and args.reset == 0)]
         if given:
             raise CLIError(f"--protocol: the protocol file describes the whole drive; remove {', '.join(given)}")
-        from .protocol_file import load
+        from .io.protocol_file import load
         return load(args.protocol)
     if args.voltage is None:
         raise CLIError("--voltage: required (amplitude, V), or --protocol FILE")
@@ -109,7 +110,7 @@ def _load(args, proto):
 
 def _describe_drive(args, proto, load) -> str:
     """One line saying what was run (the CSV's comment, the plot's title)."""
-    from .plotting import describe_load
+    from .io.plotting import describe_load
     if getattr(args, "protocol", None):
         return f"protocol {args.protocol} ({proto.duration:g} s), {describe_load(load)}"
     return (f"voltage {args.voltage:g} V, {describe_load(load)}, waveform {args.waveform}, reset {args.reset or 0:g} s, "
@@ -147,7 +148,7 @@ def _output_times(duration, dt):
     """Output times every dt over [0, duration] (and the end), after the memory check."""
     import numpy as np
 
-    from .equations import NREC
+    from .physics.equations import NREC
     n = math.floor(duration / dt + 1e-9)
     limits.check_rows("--dt", n + 2, NREC, f"--dt {dt:g} s over {duration:g} s; use a larger --dt, or 0 for "
                                            "the solver's own steps")
@@ -155,7 +156,7 @@ def _output_times(duration, dt):
 
 
 def cmd_simulate(args):
-    from .solver import SolverError, simulate
+    from .numerics.solver import SolverError, simulate
     p = _params(args)
     proto = _protocol(args)
     if args.out:
@@ -360,7 +361,7 @@ def main(argv=None):
 
 
 def _main(argv, interrupt):
-    from .solver import SolverError
+    from .numerics.solver import SolverError
     from .waveforms import WaveformError
     try:
         # the plugins' commands (reduce, compare, design, diagnose) import SciPy and

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .trace import StrokeTrace
+from .numerics.trace import StrokeTrace
 
 
 def as_trace(t, x=None) -> StrokeTrace:

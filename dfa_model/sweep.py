@@ -21,9 +21,9 @@ from concurrent.futures import as_completed
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 
-from .fileio import write_atomic
+from .io.fileio import write_atomic
 from .interrupt import local_pool, owned_pool
-from .parameters import SPEC, Parameters, coerce
+from .io.parameters import SPEC, Parameters, coerce
 from .waveforms import build_protocol
 
 SETTINGS = ("voltage", "force", "waveform", "frequency", "duty", "reset", "reset_frequency", "duration", "theta0")
@@ -66,7 +66,7 @@ def _check_applicable(base: Parameters, axes: dict) -> None:
     linear law in any case) is a setup error, reported once before anything runs."""
     from types import SimpleNamespace
 
-    from .parameters import applies, not_applicable
+    from .io.parameters import applies, not_applicable
     if "theta0" in axes and base.layout != "v-shaped":
         raise ValueError("theta0: applies only to layout 'v-shaped' (a peano-hasel pouch's angle follows from "
                          "its volume); vary volume instead")
@@ -91,7 +91,7 @@ def run_case(case: Case) -> dict:
             p = p.with_theta0(float(s["theta0"]))
         proto = build_protocol(s.get("voltage"), s.get("duration"), s.get("waveform", "dc"), s.get("frequency"),
                                s.get("duty"), s.get("reset", 0.0), s.get("reset_frequency"))
-        from .solver import simulate
+        from .numerics.solver import simulate
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             res = simulate(p, proto, load=float(s.get("force", 0.0)))

@@ -468,13 +468,13 @@ class Protocol:
     # protocol files ------------------------------------------------------------
     def to_toml(self, header=None) -> str:
         """The protocol-file text (every number exact; `header`: comment lines first)."""
-        from .protocol_file import to_toml
+        from .io.protocol_file import to_toml
         return to_toml(self, header)
 
     def save(self, path, header=None) -> list:
         """Write a protocol file (long sampled signals go to CSVs beside it); returns the
         paths written."""
-        from .protocol_file import save
+        from .io.protocol_file import save
         return save(self, path, header)
 
     @classmethod
@@ -484,7 +484,7 @@ class Protocol:
         current folder)."""
         import os
 
-        from . import protocol_file
+        from .io import protocol_file
         if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source
                                                and "[[stage]]" not in source):
             return protocol_file.load(source)

@@ -1,7 +1,7 @@
 """diagnosis: fit recordings, locate where model and measurement disagree, name and model
 the missing physics.
 
-    from dfa_model.recordings import read_dataset
+    from dfa_model.io.recordings import read_dataset
     import diagnosis
     D = diagnosis.diagnose(read_dataset("my_dataset/"))
     diagnosis.write_report(D, "out/")        # report.json, report.md, plots

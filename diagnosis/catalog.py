@@ -26,9 +26,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from dfa_model.dielectrics import SPLINE_KNOTS_MAX, from_parameters
-from dfa_model.kinematics import make
-from dfa_model.parameters import DROP_KEYS, Parameters
+from dfa_model.physics.dielectrics import SPLINE_KNOTS_MAX, from_parameters
+from dfa_model.physics.kinematics import make
+from dfa_model.io.parameters import DROP_KEYS, Parameters
 
 from .model import Coordinate, FreeParameter, zipped_field
 

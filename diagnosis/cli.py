@@ -21,7 +21,7 @@ def register(sub) -> None:
 
 
 def cmd_diagnose(args) -> int:
-    from dfa_model.recordings import read_dataset
+    from dfa_model.io.recordings import read_dataset
     ds = read_dataset(args.dataset)          # a bad dataset fails before anything is created
     out = Path(args.out)
     created = not out.exists()
@@ -40,7 +40,7 @@ def cmd_diagnose(args) -> int:
 
 
 def _diagnose(args, ds, out) -> int:
-    from dfa_model.fileio import check_writable
+    from dfa_model.io.fileio import check_writable
     from dfa_model.interrupt import owned_pool
 
     from .diagnose import diagnose

@@ -4,7 +4,7 @@ Unknowns:
 - the spec's global parameters (diagnosis.model.FreeParameter: rho_l always, plus any
   nominal value being corrected or a catalog entry's);
 - per training recording, its liquid resistivity factor exp(delta_i) (repetitions of one
-  device differ by a few percent: dfa_model.synthetic.scaled_resistivity), with the prior
+  device differ by a few percent: dfa_model.io.synthetic.scaled_resistivity), with the prior
   delta_i ~ N(0, sigma_rep) - so repetition scatter is never taken for missing physics;
 - per recording, the sensor's zero offset: read where the model's actuator rests on its
   stop (a pre-trigger stretch at 0 V, the first sample, a complete unzip), with a prior
@@ -43,8 +43,8 @@ from scipy.sparse import csr_matrix
 from threadpoolctl import threadpool_limits
 
 from dfa_model.interrupt import local_pool
-from dfa_model.parameters import Parameters
-from dfa_model.synthetic import scaled_resistivity
+from dfa_model.io.parameters import Parameters
+from dfa_model.io.synthetic import scaled_resistivity
 
 from .model import apply, start
 
@@ -464,7 +464,7 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
 def _condition_of(dataset, c) -> tuple:
     """The dataset's condition a user's (V, F) names (within the grouping's tolerances:
     a condition's key is its first recording's values)."""
-    from dfa_model.recordings import CONDITION_F, CONDITION_V
+    from dfa_model.io.recordings import CONDITION_F, CONDITION_V
     V, F = float(c[0]), float(c[1])
     for k in dataset.conditions():
         if abs(k[0] - V) <= CONDITION_V * abs(V) and abs(k[1] - F) <= max(CONDITION_F * abs(F), 0.01):

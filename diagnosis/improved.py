@@ -20,8 +20,8 @@ import datetime
 import math
 from pathlib import Path
 
-from dfa_model.fileio import write_text_atomic
-from dfa_model.parameters import applies
+from dfa_model.io.fileio import write_text_atomic
+from dfa_model.io.parameters import applies
 from dfa_model.waveforms import Protocol
 
 NAME = "improved.toml"

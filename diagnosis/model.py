@@ -21,9 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dfa_model.dielectrics import from_parameters
-from dfa_model.parameters import Parameters
-from dfa_model.synthetic import scaled_resistivity
+from dfa_model.physics.dielectrics import from_parameters
+from dfa_model.io.parameters import Parameters
+from dfa_model.io.synthetic import scaled_resistivity
 
 
 @dataclass(frozen=True)

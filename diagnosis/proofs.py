@@ -4,7 +4,7 @@ nominal actuator lacks, measured like a rig, diagnosed without being told the tr
 One design per catalog entry, one with two entries at once, one null (only the nominal
 rho_l wrong) and one wrong nominal value (t_lz). Each is measured with 1 um sensor noise,
 0.5 um quantization, 5 um zero offsets and a 5 % rho_l spread between repetitions
-(dfa_model.synthetic), 3 conditions x 3 repetitions, nominal rho_l 3e12 against a true
+(dfa_model.io.synthetic), 3 conditions x 3 repetitions, nominal rho_l 3e12 against a true
 2e12. An effect is concealed when, after the baseline fit, the error in the paper's
 headline metric (average unzipping speed over the hold) lies within the repetitions'
 spread in every condition (diagnosis.report.headline).
@@ -28,8 +28,8 @@ from pathlib import Path
 
 from dfa_model import preset
 from dfa_model.interrupt import owned_pool
-from dfa_model.recordings import read_dataset
-from dfa_model.synthetic import Measurement, generate_dataset
+from dfa_model.io.recordings import read_dataset
+from dfa_model.io.synthetic import Measurement, generate_dataset
 
 from .diagnose import diagnose
 from .fit import local_executor

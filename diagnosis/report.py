@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dfa_model.fileio import write_atomic, write_text_atomic
+from dfa_model.io.fileio import write_atomic, write_text_atomic
 
 
 def _fit_dict(f) -> dict | None:
@@ -95,7 +95,7 @@ def unverified_suggestions(D) -> list:
     value: {name (its key), kind, nominal, suggested, stderr, reason, evidence}; physics:
     {name, kind, form, nominal ({key: the nominal model's value, None when it has no such
     key}), suggested ({key: value}), parameters ({key: {value, stderr}}), reason, evidence}."""
-    from dfa_model.parameters import applies
+    from dfa_model.io.parameters import applies
     out = []
     why = D.nothing_held_out()
     chain = D.chain or []
@@ -316,7 +316,7 @@ def plot_terms(D, path) -> bool:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from dfa_model.kinematics import make
+    from dfa_model.physics.kinematics import make
     fig, axes = plt.subplots(1, len(phys), figsize=(4.5 * len(phys), 3.4), squeeze=False)
     f = D.final
     for ax, e in zip(axes[0], phys):
@@ -341,8 +341,8 @@ def plot_terms(D, path) -> bool:
             ax.set_title(f"polarization branch: chi_p = {chi:.3g} +- {f.stderr['chi_p']:.2g},\n"
                          f"tau_p = {tau:.3g} +- {f.stderr['tau_p']:.2g} s", fontsize=9)
         elif e.name == "series_resistance":
-            from dfa_model.equations import R_C
-            from dfa_model.model import DFAModel
+            from dfa_model.physics.equations import R_C
+            from dfa_model.physics.model import DFAModel
             m = DFAModel(f.params.replace(R_s=0.0))
             cases = [(0.0, "-", "open (x = 0)"), (0.999 * make(f.params).x_e, "--", "zipped")]
             taus = [f.values["R_s"] * m.diagnostics(m.initial_state(x), 1000.0)[0][R_C] for x, _, _ in cases]
@@ -387,7 +387,7 @@ def _plot_law(ax, f, D):
     recordings probe: the liquid's next to the front over the holds, from 80 % of the
     zipped field at the lowest hold voltage (it falls as the interface charges) to the
     zipped field at the highest - outside it the law is the form's extrapolation."""
-    from dfa_model.dielectrics import from_parameters
+    from dfa_model.physics.dielectrics import from_parameters
 
     from .model import zipped_field
     p = f.params

@@ -18,8 +18,8 @@ from _common import OUT
 
 import diagnosis
 from dfa_model import preset
-from dfa_model.recordings import read_dataset
-from dfa_model.synthetic import Measurement, generate_dataset
+from dfa_model.io.recordings import read_dataset
+from dfa_model.io.synthetic import Measurement, generate_dataset
 
 TRUTH = {"R_s": 1e6, "chi_p": 0.01, "tau_p": 1.0}
 

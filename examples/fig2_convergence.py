@@ -7,7 +7,7 @@ import numpy as np
 from _common import QUICK, plt, save, style
 
 from dfa_model import Protocol, preset, simulate
-from dfa_model.statics import equilibrium_stroke, force_eq10, static_force
+from dfa_model.physics.statics import equilibrium_stroke, force_eq10, static_force
 
 style()
 p = preset("vshape-table1")

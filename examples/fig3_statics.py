@@ -10,8 +10,8 @@ from _common import QUICK, plt, save, style
 from matplotlib.lines import Line2D
 
 from dfa_model import preset
-from dfa_model.kinematics import VShaped
-from dfa_model.statics import force_eq10, static_force
+from dfa_model.physics.kinematics import VShaped
+from dfa_model.physics.statics import force_eq10, static_force
 
 style()
 p = preset("vshape-table1")

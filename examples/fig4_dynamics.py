@@ -7,7 +7,7 @@ import numpy as np
 from _common import QUICK, RHO_BAND, plt, rho_band, save, style
 
 from dfa_model import Bipolar, DC, Protocol, Unipolar, preset, simulate
-from dfa_model.statics import equilibrium_stroke
+from dfa_model.physics.statics import equilibrium_stroke
 from dfa_model.sweep import grid, run_case
 
 style()

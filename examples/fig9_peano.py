@@ -14,8 +14,8 @@ import numpy as np
 from _common import QUICK, RHO_BAND, plt, rho_band, save, style
 
 from dfa_model import preset
-from dfa_model.kinematics import make
-from dfa_model.statics import equilibrium_stroke, static_force
+from dfa_model.physics.kinematics import make
+from dfa_model.physics.statics import equilibrium_stroke, static_force
 from dfa_model.sweep import grid, run_case
 
 style()

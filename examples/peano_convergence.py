@@ -6,7 +6,7 @@ import numpy as np
 from _common import QUICK, plt, save, style
 
 from dfa_model import Protocol, preset, simulate
-from dfa_model.kinematics import make
+from dfa_model.physics.kinematics import make
 
 style()
 p = preset("peano-fig10")

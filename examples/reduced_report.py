@@ -38,7 +38,8 @@ import numpy as np
 from _common import OUT, plt
 
 import reduced
-from dfa_model import parameters, preset
+from dfa_model.io import parameters
+from dfa_model import preset
 from reduced.fitting import MIN_RANGE, MIN_SPEED, Condition, Envelope, full_runs
 
 RMS_GOAL, SPEED_GOAL = 0.02, 0.05          # fractions

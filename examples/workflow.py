@@ -32,7 +32,7 @@ import numpy as np
 from _common import OUT, QUICK, plt, save
 
 from dfa_model import preset
-from dfa_model.synthetic import Measurement, generate_dataset
+from dfa_model.io.synthetic import Measurement, generate_dataset
 
 N = 21 if QUICK else 81
 K_TRUE = 300.0                 # N/m: the hidden physics

@@ -24,7 +24,7 @@ the FMI state machine and checks the calls' arguments (states, value references,
 step sizes, times) before this class sees them.
 
 FMU states are plain data (dicts, tuples, floats, NumPy arrays), serialized with
-dfa_model.statecodec (never pickle: the bytes come from the host), and validated in full
+dfa_model.io.statecodec (never pickle: the bytes come from the host), and validated in full
 before anything is assigned, so a refused state changes nothing.
 """
 import importlib
@@ -54,9 +54,9 @@ def _import_model():
             pkg = importlib.import_module(BUNDLED)
         else:
             pkg = importlib.import_module("dfa_model")
-        for sub in ("limits", "parameters", "statecodec", "stepper"):
-            importlib.import_module(f"{pkg.__name__}.{sub}")
-        return numpy, pkg
+        mods = {sub.rpartition(".")[2]: importlib.import_module(f"{pkg.__name__}.{sub}")
+                 for sub in ("limits", "io.parameters", "io.statecodec", "numerics.stepper")}
+        return numpy, pkg, mods
     except ImportError as exc:
         missing = exc.name or str(exc)
         raise ImportError(
@@ -66,9 +66,9 @@ def _import_model():
             f"{getattr(exc, 'msg', exc)})") from None
 
 
-np, _model = _import_model()
-limits, P, statecodec = _model.limits, _model.parameters, _model.statecodec
-INPUT_RTOL, OUTPUTS, Stepper = _model.stepper.INPUT_RTOL, _model.stepper.OUTPUTS, _model.stepper.Stepper
+np, _model, _mods = _import_model()
+limits, P, statecodec = _mods["limits"], _mods["parameters"], _mods["statecodec"]
+INPUT_RTOL, OUTPUTS, Stepper = _mods["stepper"].INPUT_RTOL, _mods["stepper"].OUTPUTS, _mods["stepper"].Stepper
 
 PARAMS_FILE = "dfa_params.toml"
 STEP_HEAD = 10     # header of _c_step_buf (fmi2_python.c, fast_step)
@@ -98,7 +98,7 @@ INPUT_INFO = {
 # description, the binary refuses a value outside them (fmi2SetReal, fmi3SetFloat64)
 RANGES = {kind: (-bound, bound) for kind, (bound, _) in limits.SIGNALS.items()}
 # [min, max] of the parameters (None: unbounded), from the checks their setters make
-# (dfa_model.parameters.SPEC, EXTRA): build.py writes them into the model description.
+# (dfa_model.io.parameters.SPEC, EXTRA): build.py writes them into the model description.
 # FMI's min and max are inclusive: a bound the check excludes (l > 0) is written as the
 # min all the same, and the setter refuses the bound itself.
 PARAM_RANGES = {key: (spec.lo, spec.hi) for key, spec in (*P.SPEC.items(), *((k, e[0]) for k, e in EXTRA.items()))

@@ -11,7 +11,7 @@ pythonfmu(3) leaves out, for either version:
   defined in <UnitDefinitions> with its SI base-unit exponents and display units
   (fmu/units.py: "mm" for the stroke, "kV" for the voltage); min and max of every
   parameter and input with a range (the slave modules' RANGES, from the checks their
-  setters make: dfa_model.limits and dfa_model.parameters.SPEC for the actuator);
+  setters make: dfa_model.limits and dfa_model.io.parameters.SPEC for the actuator);
   nominal values of the actuator's voltage and outputs for the parameters it was built
   from; and the ModelStructure's InitialUnknowns (FMI 2.0 requires the outputs with
   initial = calculated there; pythonfmu writes only <Outputs>, which fmpy's validation
@@ -46,8 +46,8 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from dfa_model import parameters as P
-from dfa_model.fileio import file_mode, write_atomic
+from dfa_model.io import parameters as P
+from dfa_model.io.fileio import file_mode, write_atomic
 
 HERE = Path(__file__).resolve().parent
 SLAVE = HERE / "dfa_actuator.py"
@@ -104,8 +104,8 @@ def actuator_nominals(params: P.Parameters, v_nominal: float) -> dict:
     the stroke range x_e, the electrode length, the initial angle, the capacitance of
     the unzipped actuator, the static zipping force and the stored energy at v_nominal.
     Only finite positive values (FMI 2.0 requires nominal > 0)."""
-    from dfa_model.solver import zip_force_per_volt2
-    from dfa_model.stepper import OUTPUTS, Stepper
+    from dfa_model.numerics.solver import zip_force_per_volt2
+    from dfa_model.numerics.stepper import OUTPUTS, Stepper
     st = Stepper(params, v_nominal=v_nominal)
     c0 = float(st.out[list(OUTPUTS).index("capacitance")])
     values = {"voltage": v_nominal, "stroke": st.model.kin.x_e, "zipped_length": params.l_e,
@@ -143,8 +143,10 @@ def bundle_model(dest: Path) -> None:
     from dfa_model import _jit
     pkg = Path(_jit.__file__).parent
     dest.mkdir()
-    for f in pkg.glob("*.py"):
-        shutil.copy2(f, dest / f.name)
+    for f in pkg.rglob("*.py"):           # the package and its role subpackages (physics, numerics, io)
+        if "__pycache__" not in f.parts:
+            (dest / f.relative_to(pkg)).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(f, dest / f.relative_to(pkg))
     shutil.copytree(pkg / "presets", dest / "presets")
     name = _jit.AOT_MODULE + sysconfig.get_config_var("EXT_SUFFIX")
     if _jit.AOT is not None and Path(_jit.AOT.__file__).exists():
@@ -410,7 +412,7 @@ def _fix_description(xml: bytes, units_of: dict, serialize: bool, ranges: dict |
             cs.set(key, value)
         cs.set("canSerializeFMUState", "true" if serialize else "false")
     else:
-        # fmi2_python.c serializes the state when the slave can (the actuator: dfa_model.statecodec)
+        # fmi2_python.c serializes the state when the slave can (the actuator: dfa_model.io.statecodec)
         cs.set("canSerializeFMUstate", "true" if serialize else "false")
     ms = root.find("ModelStructure")
     for child in list(ms):

@@ -45,7 +45,7 @@ def cmd_fmu_build(args):
         from .ssp import build_system as build
         drive, load = "the drive electronics", "the load"
         if args.drive is not None:
-            from dfa_model.protocol_file import load as load_protocol
+            from dfa_model.io.protocol_file import load as load_protocol
             proto = load_protocol(args.drive)       # a bad file: its own one-line WaveformError (exit 2)
             kwargs = {"drive": proto, "drive_source": os.path.basename(args.drive)}
             drive = f"the drive electronics playing {args.drive} for {proto.duration:g} s"

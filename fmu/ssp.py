@@ -31,7 +31,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
-from dfa_model import parameters as P
+from dfa_model.io import parameters as P
 from dfa_model.waveforms import Protocol, Sampled
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"

@@ -1,7 +1,7 @@
 """Units for the FMUs' model descriptions and the SSP: Modelica unit syntax, SI
 base-unit exponents, display units.
 
-The project writes units for people ("ohm m", "N s/m", "m^3": dfa_model.parameters.SPEC,
+The project writes units for people ("ohm m", "N s/m", "m^3": dfa_model.io.parameters.SPEC,
 the slave modules' tables); a model description needs them in Modelica syntax (FMI 2.0,
 2.2.2: "Ohm.m", "N.s/m", "m3"), each defined once in <UnitDefinitions> with its
 exponents of the SI base units (kg, m, s, A, K, mol, cd, rad) and its display units.

@@ -28,7 +28,7 @@ Definitions (one implementation, dfa_model.metrics.last_periods, used for the su
 and the full model alike; README, 'Words with one meaning'):
 
     ripple  peak-to-peak stroke over the last whole period of the horizon (m)
-    drift   x_static - x_mean_end (m): x_static = dfa_model.statics.equilibrium_stroke
+    drift   x_static - x_mean_end (m): x_static = dfa_model.physics.statics.equilibrium_stroke
             (params, V, F), the uncharged static stroke; x_mean_end the time mean of the
             stroke over that last period. Both the slow charge drift (low f, or
             positive_share != 0.5) and the sag at the zero crossings (high f, finite slew)
@@ -145,8 +145,8 @@ def static_stroke(params, V, F) -> float:
     """x_static of the drift's definition (uncharged static stroke, full model's maps)."""
     import warnings
 
-    from dfa_model.dielectrics import PhysicsWarning
-    from dfa_model.statics import equilibrium_stroke
+    from dfa_model.physics.dielectrics import PhysicsWarning
+    from dfa_model.physics.statics import equilibrium_stroke
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicsWarning)
         return float(equilibrium_stroke(params, V, F))

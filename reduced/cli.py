@@ -14,7 +14,7 @@ import numpy as np
 
 from dfa_model import cli as base
 from dfa_model.cli import json_safe
-from dfa_model.fileio import check_writable
+from dfa_model.io.fileio import check_writable
 
 
 def register(sub) -> None:

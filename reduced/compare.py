@@ -26,7 +26,7 @@ import numpy as np
 
 from dfa_model import PhysicsWarning, simulate
 from dfa_model.metrics import cycles
-from dfa_model.solver import protocol_load
+from dfa_model.numerics.solver import protocol_load
 from dfa_model.waveforms import Bipolar, Unipolar
 
 KEYS = ("stroke_rms_error", "stroke_range", "relative_rms_error", "unzipping_speed_full", "unzipping_speed_reduced",
@@ -147,6 +147,6 @@ def plot(row, path, title=None):
     a2.set_ylabel("error (µm)")
     a2.set_xlabel("time (s)")
     fig.tight_layout()
-    from dfa_model.fileio import write_atomic
+    from dfa_model.io.fileio import write_atomic
     write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=130, format=str(path).rsplit(".", 1)[-1]))
     plt.close(fig)

@@ -14,7 +14,7 @@ F. With the words of README, 'Words with one meaning':
 
     ripple  peak-to-peak stroke over the last whole period of the horizon (m)
     drift   stroke lost: x_static - the mean stroke over that period (m, positive when
-            lost), x_static the uncharged static stroke (dfa_model.statics.equilibrium_stroke)
+            lost), x_static the uncharged static stroke (dfa_model.physics.statics.equilibrium_stroke)
 
 Low frequencies let the interface charge follow each polarity (ripple grows like 1/f,
 and the charge's slow mean drifts); high frequencies spend more of the time in the
@@ -178,8 +178,8 @@ def check_arguments(V, F, max_ripple, max_drift, horizon, slew_rate=None, curren
 def device_capacitance(params, x, V) -> float:
     """Capacitance (F) at stroke x, uncharged (the full model's diagnostics column R_C:
     capacitance at fixed interface charge)."""
-    from dfa_model.equations import R_C
-    from dfa_model.statics import static_state
+    from dfa_model.physics.equations import R_C
+    from dfa_model.physics.statics import static_state
 
     from . import frozen
     model = frozen.as_model(params) if not hasattr(params, "diagnostics") else params

@@ -9,7 +9,7 @@ import sys
 
 from dfa_model import cli as base
 from dfa_model.cli import json_safe
-from dfa_model.fileio import PLOT_FORMATS, check_writable, write_atomic
+from dfa_model.io.fileio import PLOT_FORMATS, check_writable, write_atomic
 
 
 def add_model_flags(p) -> None:
@@ -44,7 +44,7 @@ def params_and_surrogate(args, say):
     """(params, surrogate, note) of a design or hold command: the parameters from --preset
     or --params (or, with --model alone, the model's own), the surrogate from --model
     (checked: the same device) or the cache."""
-    from dfa_model import parameters
+    from dfa_model.io import parameters
 
     from .model_cache import surrogate_for
     from .surrogate import load

@@ -6,7 +6,7 @@ lumped   The literature's control-oriented circuit: the zipped region as a film 
          is the state; the force is Eq. (10)'s lumped co-energy with the liquid layer's
          field reduced by that charge:  F_e = (w/2) dl_z/dx c_f c_l/(c_f+c_l) (V - q/c_f)^2.
          Every number from geometry and materials: no fitting (refine with fit()).
-charge   The full model reduced in material terms (dfa_model/surrogate_kernel.py has the
+charge   The full model reduced in material terms (dfa_model/numerics/surrogate_kernel.py has the
          states and their physics): the front layer, an effective material point whose
          rates match the full model's force-weighted charge at s = 0 and s = infinity
          at each frozen stroke (frozen.front_layer, frozen.front_point) and through
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dfa_model import surrogate_kernel as sk
+from dfa_model.numerics import surrogate_kernel as sk
 
 from . import frozen
 from .surrogate import Surrogate

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dfa_model import PhysicsWarning, sweep
-from dfa_model.parameters import Parameters
+from dfa_model.io.parameters import Parameters
 from dfa_model.waveforms import build_protocol
 
 from . import families
@@ -109,7 +109,7 @@ def full_runs(params: Parameters, conditions, executor=None, progress=True, desc
         if r.get("status") != "ok":
             raise RuntimeError(f"full model failed on {c.label}: {r.get('error')}")
         res = r["result"]
-        from dfa_model.model import DFAModel
+        from dfa_model.physics.model import DFAModel
         res.model = DFAModel(params)
         out.append(res)
     return out

@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from dfa_model import DFAModel, Parameters
-from dfa_model import surrogate_kernel as sk
-from dfa_model.equations import R_C, R_I, U0
-from dfa_model.equations import T0 as T0_INDEX
+from dfa_model.numerics import surrogate_kernel as sk
+from dfa_model.physics.equations import R_C, R_I, U0
+from dfa_model.physics.equations import T0 as T0_INDEX
 
 
 V_REF = 1000.0     # V: evaluation amplitude (the maps are exact quadratic/affine forms)
@@ -215,7 +215,7 @@ def wake_gap(model: DFAModel, xg, w_f, c_w: float) -> np.ndarray:
 
 
 def material_tables(model: DFAModel, n_grid: int = 161, n_points: int = 11, c_w: float = 2.0):
-    """(x_grid, tables) of the material-point surrogate (dfa_model.surrogate_kernel's
+    """(x_grid, tables) of the material-point surrogate (dfa_model.numerics.surrogate_kernel's
     columns): over x in [0, x_e] the force's quadratic map in the layer's (V, q, P), the
     layer's effective point, width and the front's lever, the device capacitance, the
     current's maps, the unzipped wake's mean gap (c_w layer widths wide) and each

@@ -6,7 +6,7 @@ import json
 import sys
 
 from dfa_model import cli as base
-from dfa_model.fileio import check_writable, write_atomic
+from dfa_model.io.fileio import check_writable, write_atomic
 
 from dfa_model.cli import json_safe
 

@@ -37,7 +37,7 @@ ki = w_c / g puts the crossover at w_c, by default the smallest of p / 10, 2 pi 
 (an order below the inversion ripple at 2 f) and 0.2 / dt_control. The margins are those
 of the sampled loop (ZOH plant, discrete PI) from control.margin.
 
-Simulation: simulate_hold closes the loop on the full model with dfa_model.stepper.Stepper
+Simulation: simulate_hold closes the loop on the full model with dfa_model.numerics.stepper.Stepper
 (the class the FMU runs: exact=True is the FMU's land_on_communication_points = true),
 cosim_hold_fmu closes the same loop around the FMU under fmpy (a Python master). Both set
 the stepper's clock to k * dt at step k, as the FMU does, so the two agree to rounding.
@@ -52,8 +52,8 @@ from collections.abc import Callable
 import numpy as np
 
 from dfa_model import DFAModel, limits
-from dfa_model.parameters import Parameters
-from dfa_model.stepper import OUTPUTS, Stepper
+from dfa_model.io.parameters import Parameters
+from dfa_model.numerics.stepper import OUTPUTS, Stepper
 
 MODES = ("bipolar", "dc")
 _I_X, _I_I, _I_C = (list(OUTPUTS).index(n) for n in ("stroke", "current", "capacitance"))
@@ -111,7 +111,7 @@ def _pi_tf(kp, ki, dt):
 
 def feedforward_voltage(s_or_params, x_ref, F, v_lo=100.0, v_hi=None):
     """The DC voltage whose static (uncharged) stroke is x_ref under the load F: from the
-    surrogate's statics for a Surrogate, from dfa_model.statics for Parameters/DFAModel."""
+    surrogate's statics for a Surrogate, from dfa_model.physics.statics for Parameters/DFAModel."""
     from scipy.optimize import brentq
     if hasattr(s_or_params, "equilibrium"):
         def stroke(V):
@@ -120,7 +120,7 @@ def feedforward_voltage(s_or_params, x_ref, F, v_lo=100.0, v_hi=None):
         import warnings
 
         from dfa_model import PhysicsWarning
-        from dfa_model.statics import equilibrium_stroke
+        from dfa_model.physics.statics import equilibrium_stroke
 
         def stroke(V):
             with warnings.catch_warnings():
@@ -402,11 +402,11 @@ def simulate_hold_surrogate(s, controller: HoldController | float, x_ref: float 
                             frequency: float | None = None, rtol: float | None = None,
                             label: str | None = None) -> HoldResult:
     """simulate_hold's loop on the surrogate `s`, all of it compiled (the fast closed-loop
-    path: dfa_model.surrogate_kernel.pi_loop, the same PI law, polarity and sampling as
+    path: dfa_model.numerics.surrogate_kernel.pi_loop, the same PI law, polarity and sampling as
     simulate_hold, one kernel call for the whole hold). controller: a HoldController, or
     an open-loop amplitude (V) with `mode` and `frequency`. F: a constant load (N); a
     load that varies in time needs simulate_hold's Python loop on the full model."""
-    from dfa_model import surrogate_kernel as sk
+    from dfa_model.numerics import surrogate_kernel as sk
     from .surrogate import RTOL, SurrogateError
     if isinstance(controller, HoldController):
         c = controller

@@ -15,7 +15,7 @@ import math
 import os
 from pathlib import Path
 
-from dfa_model.parameters import Parameters
+from dfa_model.io.parameters import Parameters
 
 DISCRETIZATION = "discretization"
 REL_TOL = 5e-6       # surrogate files before exact TOML numbers kept 6 significant digits

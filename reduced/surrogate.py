@@ -1,6 +1,6 @@
 """A surrogate: a few states, tabulated maps of the stroke, a fast path and python-control.
 
-All families share one structure (dfa_model/surrogate_kernel.py; the states are named
+All families share one structure (dfa_model/numerics/surrogate_kernel.py; the states are named
 in `state_names`):
 
     x        stroke (m)                         b dx/dt = F_e - F - k x   (m = 0)
@@ -33,12 +33,12 @@ from functools import cached_property
 import numpy as np
 
 from dfa_model import limits
-from dfa_model import surrogate_kernel as sk
-from dfa_model.dielectrics import from_parameters
-from dfa_model.parameters import Parameters
-from dfa_model.results import StrokeMetrics
-from dfa_model.solver import protocol_load
-from dfa_model.trace import StrokeTrace
+from dfa_model.numerics import surrogate_kernel as sk
+from dfa_model.physics.dielectrics import from_parameters
+from dfa_model.io.parameters import Parameters
+from dfa_model.io.results import StrokeMetrics
+from dfa_model.numerics.solver import protocol_load
+from dfa_model.numerics.trace import StrokeTrace
 from dfa_model.waveforms import Load, Protocol, segments
 
 FORMAT = "dfa-surrogate"
@@ -84,7 +84,7 @@ class Surrogate:
 
     family   'charge' or 'lumped' (families.py)
     params   the actuator (dfa_model Parameters) the maps were computed for
-    x_grid, tables  the maps of the stroke (dfa_model.surrogate_kernel columns; the
+    x_grid, tables  the maps of the stroke (dfa_model.numerics.surrogate_kernel columns; the
              material points' inverse gaps last)
     n_points the number of material points (0: none, the layer alone)
     c_ell    the front renews its layer as it moves by ell(x) = c_ell w_f(x) (w_f: the
@@ -206,7 +206,7 @@ class Surrogate:
     # ------------------------------------------------------------------ fast path
     def simulate(self, protocol, load=None, duration=None, *, rtol=RTOL, y0=None, max_steps=limits.MAX_STEPS,
                  averaged=None) -> SurrogateResult:
-        """Run a protocol on the compiled path (dfa_model.surrogate_kernel). `protocol` and
+        """Run a protocol on the compiled path (dfa_model.numerics.surrogate_kernel). `protocol` and
         `load` as in dfa_model.simulate. `y0`: initial state by name ({'x': ..., 'q_f': ...},
         state_names) or a kernel state vector; default uncharged at rest at x = 0.
         `averaged`: the mean square voltage per segment for the cycle-averaged form
@@ -361,7 +361,7 @@ class Surrogate:
         """The stroke at rest under DC V and load F with the charges held (`charges`: {name:
         value}, default uncharged): the state vector (by state_names, SI) where the
         mechanics balance, the stroke within [0, x_e]. Zips from x = 0 (the first balance),
-        like dfa_model.statics.equilibrium_stroke."""
+        like dfa_model.physics.statics.equilibrium_stroke."""
         charges = dict(charges or {})
         unknown = set(charges) - set(self.state_names)
         if unknown:
@@ -454,7 +454,7 @@ class Surrogate:
 
     def save(self, path) -> None:
         """Write the surrogate as JSON (loads back with reduced.load)."""
-        from dfa_model.fileio import write_text_atomic
+        from dfa_model.io.fileio import write_text_atomic
         write_text_atomic(path, json.dumps(self.to_dict()))
 
     def __repr__(self):
@@ -485,8 +485,8 @@ def from_dict(d: dict) -> Surrogate:
     or out of range is a ValueError naming the key (the file is damaged, or not one)."""
     import tomllib
 
-    from dfa_model.parameters import ParameterError
-    from dfa_model.parameters import from_dict as params_from_dict
+    from dfa_model.io.parameters import ParameterError
+    from dfa_model.io.parameters import from_dict as params_from_dict
 
     from .families import FAMILIES
     if not isinstance(d, dict) or d.get("format") != FORMAT:

@@ -23,7 +23,7 @@ import fmpy.validation  # noqa: E402
 from fmpy.fmi1 import FMICallException  # noqa: E402
 
 from dfa_model import PhysicsWarning, preset  # noqa: E402
-from dfa_model.stepper import Stepper  # noqa: E402
+from dfa_model.numerics.stepper import Stepper  # noqa: E402
 # the FMU tests' shared helpers and fixtures md, unzipped (of fmu_path below)
 from fmu_support import H, description, direct_stroke, md, slave, unzipped, vr  # noqa: E402,F401
 

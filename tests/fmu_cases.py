@@ -19,7 +19,7 @@ pytest.importorskip("pythonfmu")
 from fmpy.fmi1 import FMICallException  # noqa: E402
 
 from dfa_model import PhysicsWarning, Protocol, preset, simulate  # noqa: E402
-from dfa_model.stepper import Stepper  # noqa: E402
+from dfa_model.numerics.stepper import Stepper  # noqa: E402
 from dfa_model.waveforms import Sampled  # noqa: E402
 from fmu import build_fmu  # noqa: E402
 # the FMU tests' shared helpers and fixtures md, unzipped (of fmu_path below)
@@ -493,7 +493,7 @@ from fmpy.fmi2 import (fmi2Boolean, fmi2CallbackAllocateMemoryTYPE, fmi2Callback
 from hypothesis import HealthCheck, given, settings, strategies as hs  # noqa: E402
 
 from dfa_model import parameters as P  # noqa: E402
-from dfa_model.model import DFAModel  # noqa: E402
+from dfa_model.physics.model import DFAModel  # noqa: E402
 
 OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
 INST, INIT, SC, SF, TERM, ERR = ("instantiated", "initializationMode", "stepComplete", "stepFailed", "terminated",
@@ -865,7 +865,7 @@ def _actuator():
 
 def _bad_states(state):
     """Crafted variants of a valid state, each with one thing wrong."""
-    from dfa_model import statecodec
+    from dfa_model.io import statecodec
     st = state["stepper"]
 
     def with_solver(i, v):
@@ -891,7 +891,7 @@ def _bad_states(state):
 
 def test_set_state_is_atomic():
     """A refused state changes nothing: the slave validates all of it before it assigns."""
-    from dfa_model import statecodec
+    from dfa_model.io import statecodec
     a = _actuator()
     good = a._get_fmu_state()
     before = statecodec.encode(good)
@@ -918,7 +918,7 @@ def test_crafted_serialized_states_are_refused(md, unzipped, tmp_path, capsys):
     """Bytes from the host are never unpickled; crafted, truncated, oversized or
     corrupted states are refused with fmi2Error and a message, and the instance goes on."""
     import pickle
-    from dfa_model import statecodec
+    from dfa_model.io import statecodec
 
     class Boom:
         def __reduce__(self):

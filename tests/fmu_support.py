@@ -12,7 +12,7 @@ from xml.etree import ElementTree as ET
 import pytest
 
 from dfa_model import preset
-from dfa_model.stepper import Stepper
+from dfa_model.numerics.stepper import Stepper
 
 H = 1e-3          # the communication step size of the FMU tests [s]
 HERE = Path(__file__).resolve().parent

@@ -11,7 +11,7 @@ import re
 import time
 from collections import Counter
 
-from dfa_model.parameters import SPEC
+from dfa_model.io.parameters import SPEC
 
 COUNTS: Counter = Counter()
 CASE_SECONDS = 60.0        # no case may take longer (the runs are bounded by --max-steps)

@@ -10,7 +10,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from dfa_model import Protocol, parameters
+from dfa_model.io import parameters
+
+from dfa_model import Protocol
 
 FMU_READY = all(__import__("importlib").util.find_spec(m) for m in ("fmpy", "pythonfmu")) and \
     (shutil.which("cc") or shutil.which("gcc")) is not None

@@ -127,7 +127,7 @@ def test_peano_volume_and_nominal_integer(tmp_path, capsys):
 
 
 def load_text(name):
-    from dfa_model.parameters import preset_text
+    from dfa_model.io.parameters import preset_text
     return preset_text(name)
 
 

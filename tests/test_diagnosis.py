@@ -1,4 +1,4 @@
-"""Mismatch diagnosis on synthetic datasets (dfa_model.synthetic): a null dataset (only
+"""Mismatch diagnosis on synthetic datasets (dfa_model.io.synthetic): a null dataset (only
 the nominal rho_l wrong), a wrong nominal t_lz, a bad dataset. Small and short (N = 41,
 1 s reset + 5 s hold, 3 loads x 2 repetitions) to keep CI fast. The concealed effects,
 one per catalog entry and a combined case, are in test_diagnosis_proof.py."""
@@ -11,8 +11,8 @@ import pytest
 
 import diagnosis
 from dfa_model import preset
-from dfa_model.recordings import read_dataset
-from dfa_model.synthetic import Measurement, generate_dataset
+from dfa_model.io.recordings import read_dataset
+from dfa_model.io.synthetic import Measurement, generate_dataset
 from improved_support import check_improved
 
 NOMINAL = preset("vshape-table1").replace(N=41, rho_l=3e12)
@@ -99,7 +99,7 @@ def test_one_condition_suggests_a_nominal_value_but_does_not_correct_it(tmp_path
     md = (out / "report.md").read_text()
     assert "## Unverified suggestions" in md and "Nothing could be held out (one condition)" in md
     text = (out / "improved.toml").read_text()
-    from dfa_model import parameters
+    from dfa_model.io import parameters
     assert parameters.load(out / "improved.toml").t_lz == NOMINAL.t_lz
     assert "nominal values corrected" not in text and "suggested t_lz: 1.3" in text
     check_improved(D, report, out)
@@ -118,7 +118,7 @@ def test_one_recording_names_no_physics(tmp_path_factory):
     assert u["kind"] == "physics" and u["nominal"] == {"k": 0.0} and u["suggested"]["k"] > 100.0
     assert "stiffness listed as unverified suggestions, not missing physics" in report["conclusion"]
     assert "missing physics:" not in report["conclusion"]
-    from dfa_model import parameters
+    from dfa_model.io import parameters
     assert parameters.load(out / "improved.toml").k == 0.0
     assert "suggested physics stiffness: k = " in (out / "improved.toml").read_text()
     assert "stiffness (physics)" in (out / "report.md").read_text()
@@ -211,7 +211,7 @@ def test_the_data_choose_the_spline_knots(monkeypatch):
     assert best.params.n_knots == 4 and [s["n_knots"] for s in steps] == [2, 3, 4, 5]
     assert [s["delta_bic"] for s in steps] == [0.0, -40.0, -60.0, bic[5]]
     # each fit starts from the last kept law through one knot more, passing through it at the knots
-    from dfa_model.dielectrics import from_parameters
+    from dfa_model.physics.dielectrics import from_parameters
     prev = p2
     for q in starts:
         E, r = from_parameters(q).knots

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dfa_model.dielectrics import from_parameters
+from dfa_model.physics.dielectrics import from_parameters
 from diagnosis.proofs import CASES, E6, run
 from improved_support import check_improved
 

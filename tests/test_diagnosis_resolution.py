@@ -10,9 +10,10 @@ import json
 import pytest
 
 import diagnosis
-from dfa_model import parameters, preset
-from dfa_model.recordings import read_dataset
-from dfa_model.synthetic import Measurement, generate_dataset
+from dfa_model.io import parameters
+from dfa_model import preset
+from dfa_model.io.recordings import read_dataset
+from dfa_model.io.synthetic import Measurement, generate_dataset
 from diagnosis.fit import InProcess
 
 
@@ -77,7 +78,7 @@ def test_a_truth_law_outside_the_parameter_file(tmp_path):
     """synthetic.generate_dataset(law=): the truth runs a law the parameter file cannot
     express (the diagnosis's held-out truths), named in the manifest; the recording
     differs from the constant law's."""
-    from dfa_model.synthetic import ExponentialResistivity
+    from dfa_model.io.synthetic import ExponentialResistivity
     from diagnosis.catalog import zipped_field
     p = preset("vshape-table1").replace(N=21, rho_l=2e12)
     E6 = zipped_field(p, 6000.0)

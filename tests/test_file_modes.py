@@ -1,5 +1,5 @@
 """Output files get the mode of any new file under the user's umask (0o644 under 0o022,
-0o600 under 0o077), still written atomically (dfa_model.fileio.write_atomic): the CSV and
+0o600 under 0o077), still written atomically (dfa_model.io.fileio.write_atomic): the CSV and
 plot of `dfa simulate`, an FMU and an SSP of `dfa fmu build` (and the entries inside
 them), and a diagnosis's report, improved model, plots and protocol files."""
 from __future__ import annotations
@@ -13,7 +13,7 @@ import pytest
 
 from dfa_model import preset
 from dfa_model.cli import main
-from dfa_model.fileio import write_text_atomic
+from dfa_model.io.fileio import write_text_atomic
 
 MODES = [(0o022, 0o644), (0o077, 0o600)]
 
@@ -90,8 +90,8 @@ def test_fmu_and_ssp(tmp_path, capsys, mask, want):
 def small_diagnosis(tmp_path_factory):
     """One short recording, the baseline fit only (no candidates): what matters is the writing."""
     import diagnosis
-    from dfa_model.recordings import read_dataset
-    from dfa_model.synthetic import generate_dataset
+    from dfa_model.io.recordings import read_dataset
+    from dfa_model.io.synthetic import generate_dataset
     from diagnosis.fit import InProcess
     folder = tmp_path_factory.mktemp("modes_diag")
     nominal = preset("vshape-table1").replace(N=21, rho_l=3e12)

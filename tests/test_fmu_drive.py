@@ -27,7 +27,7 @@ import fmpy.validation  # noqa: E402
 
 from dfa_model import PhysicsWarning, preset, simulate  # noqa: E402
 from dfa_model.cli import main  # noqa: E402
-from dfa_model.model import DFAModel  # noqa: E402
+from dfa_model.physics.model import DFAModel  # noqa: E402
 from dfa_model.waveforms import Load, Protocol, Sampled  # noqa: E402
 
 # 0.2 s of 30 Hz inversion with 0.3 ms ramps (12 kV at 4e7 V/s), then a DC hold, against 5 N

@@ -29,7 +29,7 @@ pytest.importorskip("fmpy")
 pytest.importorskip("pythonfmu")
 
 from dfa_model import PhysicsWarning, preset  # noqa: E402
-from dfa_model.stepper import Stepper  # noqa: E402
+from dfa_model.numerics.stepper import Stepper  # noqa: E402
 from fmu_support import H, direct_stroke  # noqa: E402
 
 RUNTIME = ("numpy", "scipy", "numba", "fmpy")

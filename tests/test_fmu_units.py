@@ -6,7 +6,7 @@ import re
 
 import pytest
 
-from dfa_model import parameters as P
+from dfa_model.io import parameters as P
 from fmu import units as U
 
 # SI base-unit exponents (kg, m, s, A, K, mol, cd, rad), derived by hand: the check of

@@ -676,7 +676,7 @@ def _would_build(argv) -> bool:
     system can play), so that the budget of real builds is spent only there."""
     if "--drive" not in argv:
         return True
-    from dfa_model.protocol_file import load
+    from dfa_model.io.protocol_file import load
     from fmu.ssp import load_setup
     try:
         load_setup(load(argv[argv.index("--drive") + 1]))
@@ -748,7 +748,7 @@ def base_recording() -> tuple[str, list, list]:
     0.3 s reset at 30 Hz, a 0.7 s hold at 6 kV against 5 N, 1 kHz): a dataset of it alone
     is diagnosed in seconds."""
     if not _BASE:
-        from dfa_model.synthetic import generate_dataset
+        from dfa_model.io.synthetic import generate_dataset
         folder = TMP / "base_dataset"
         generate_dataset(folder, P21, P21, conditions=[(6000.0, 5.0)], repetitions=1, reset=0.3, hold=0.7, seed=3)
         (csv_path,) = folder.glob("*.csv")
@@ -934,7 +934,7 @@ def test_diagnose_datasets(dataset, out, flags):
 
 def _readable(folder) -> bool:
     """Whether `dfa diagnose` would read this dataset and go on to diagnose it."""
-    from dfa_model.recordings import read_dataset
+    from dfa_model.io.recordings import read_dataset
     try:
         read_dataset(folder)
         return True

@@ -9,8 +9,8 @@ import pytest
 
 import diagnosis
 from dfa_model import preset
-from dfa_model.recordings import read_dataset
-from dfa_model.synthetic import generate_dataset
+from dfa_model.io.recordings import read_dataset
+from dfa_model.io.synthetic import generate_dataset
 from diagnosis.proofs import E6
 from diagnosis.fit import InProcess
 from improved_support import check_improved

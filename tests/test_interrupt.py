@@ -179,7 +179,7 @@ def test_design(tmp_path):
 
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
-    from dfa_model.synthetic import Measurement, generate_dataset
+    from dfa_model.io.synthetic import Measurement, generate_dataset
     folder = tmp_path_factory.mktemp("interrupt_dataset")
     nominal = preset("vshape-table1").replace(N=41, rho_l=3e12)
     generate_dataset(folder, nominal.replace(rho_l=2e12), nominal, [(6000.0, 3.0), (6000.0, 5.0), (6000.0, 7.0)],

@@ -1,4 +1,4 @@
-"""Lab recording formats (dfa_model/recordings.py): dataset.toml's column names and units,
+"""Lab recording formats (dfa_model/io/recordings.py): dataset.toml's column names and units,
 HDF5 and TDMS, the size limit, CRLF and csv's field limit. A simulated recording written in
 each format reads back as the SI original with the same protocol; every failure is one
 line naming the file and the field (and `dfa diagnose` prints it as `dfa: error:`)."""
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from dfa_model import preset, simulate
-from dfa_model.parameters import preset_text
-from dfa_model.recordings import RecordingError, read_csv, read_dataset, read_hdf5, read_layout, read_tdms
+from dfa_model.io.parameters import preset_text
+from dfa_model.io.recordings import RecordingError, read_csv, read_dataset, read_hdf5, read_layout, read_tdms
 from dfa_model.waveforms import Protocol
 
 V, F = 6000.0, 5.0
@@ -224,7 +224,7 @@ def test_a_units_row_and_dataset_toml_disagreeing(sim, folder):
 
 # ------------------------------------------------------------------------ limits and damaged files
 def test_a_file_above_the_size_limit_is_refused_unread(sim, folder, monkeypatch):
-    import dfa_model.recordings as recordings
+    import dfa_model.io.recordings as recordings
     sim.to_csv(folder / "a.csv")
     n = (folder / "a.csv").stat().st_size
     (folder / "dataset.toml").write_text("[files]\nmax_bytes = 1000\n")
@@ -268,7 +268,7 @@ def test_a_binary_file_without_its_library_names_the_extra(folder, monkeypatch, 
 
 def test_hdf5_errors_name_the_field(sim, tmp_path):
     pytest.importorskip("h5py")
-    from dfa_model.recordings import Layout
+    from dfa_model.io.recordings import Layout
     c = sim.columns()
     (tmp_path / "junk.h5").write_bytes(b"not an HDF5 file\n" * 10)
     with pytest.raises(RecordingError, match=r"^junk\.h5: cannot read as HDF5: .*file signature not found"):
@@ -306,7 +306,7 @@ def test_hdf5_errors_name_the_field(sim, tmp_path):
 
 def test_tdms_errors_name_the_field(sim, tmp_path):
     pytest.importorskip("nptdms")
-    from dfa_model.recordings import Layout
+    from dfa_model.io.recordings import Layout
     c = sim.columns()
     plain = {k: k for k in LAB}
     (tmp_path / "junk.tdms").write_bytes(b"not a TDMS file\n" * 10)

@@ -1,7 +1,7 @@
 import pytest
 
 from dfa_model import ParameterError, Parameters, load, preset
-from dfa_model.parameters import apply_sets, from_dict
+from dfa_model.io.parameters import apply_sets, from_dict
 
 
 def test_presets_load_and_round_trip(tmp_path):
@@ -81,16 +81,18 @@ def test_jit_cache_is_dropped_when_kernel_sources_change(tmp_path, monkeypatch):
     pkg = tmp_path / "pkg"
     pkg.mkdir()
     for m in _jitcache.KERNEL_MODULES:
+        (pkg / f"{m}.py").parent.mkdir(exist_ok=True)
         (pkg / f"{m}.py").write_text(f"# {m}\n")
     shutil.copy(_jitcache.__file__, pkg / "_jitcache.py")
     monkeypatch.syspath_prepend(str(tmp_path))
     import importlib
     jc = importlib.import_module("pkg._jitcache")
     jc.refresh()
-    stale = pkg / "__pycache__" / "nodal.rhs_p1-1.py311.nbi"
+    (pkg / "physics" / "__pycache__").mkdir()
+    stale = pkg / "physics" / "__pycache__" / "nodal.rhs_p1-1.py311.nbi"
     stale.write_text("x")
     jc.refresh()
     assert stale.exists()                          # unchanged sources: cache kept
-    (pkg / "nodal.py").write_text("# changed\n")
+    (pkg / "physics" / "nodal.py").write_text("# changed\n")
     jc.refresh()
     assert not stale.exists()                      # a kernel source changed: cache dropped

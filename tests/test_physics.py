@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from dfa_model import Bipolar, DFAModel, Protocol, Stage, DC, simulate
-from dfa_model.dielectrics import blocked_end_state, stack_time_constant
-from dfa_model.statics import equilibrium_stroke
+from dfa_model.physics.dielectrics import blocked_end_state, stack_time_constant
+from dfa_model.physics.statics import equilibrium_stroke
 
 
 def test_blocked_stack_relaxes_with_eq20(vshape81):

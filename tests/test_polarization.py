@@ -7,7 +7,7 @@ import pytest
 from scipy.linalg import expm
 
 from dfa_model import DFAModel, Protocol, Stage, DC, Bipolar, simulate
-from dfa_model.parameters import ParameterError
+from dfa_model.io.parameters import ParameterError
 
 CHI, TAU_P = 0.2, 0.5
 

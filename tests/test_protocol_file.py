@@ -1,4 +1,4 @@
-"""The protocol file (dfa_model/protocol_file.py): one language for a drive. Round trips
+"""The protocol file (dfa_model/io/protocol_file.py): one language for a drive. Round trips
 are exact, every stage kind and the load are expressible, bad input is one line naming
 the file, stage and key, and the waveforms mean what the README says (duty, ramps
 centred on their instants, the charge-balanced start)."""

@@ -1,4 +1,4 @@
-"""Recordings (dfa_model/recordings.py): every malformed input gets a one-line error naming
+"""Recordings (dfa_model/io/recordings.py): every malformed input gets a one-line error naming
 the file and row; documented handlings are stated in the notes; a simulation written by
 `dfa simulate --out` reads back as a recording whose inferred protocol reproduces it."""
 from __future__ import annotations
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from dfa_model import preset, simulate
-from dfa_model.parameters import preset_text
-from dfa_model.recordings import RecordingError, read_csv, read_dataset
+from dfa_model.io.parameters import preset_text
+from dfa_model.io.recordings import RecordingError, read_csv, read_dataset
 from dfa_model.waveforms import Protocol
 
 V, F = 6000.0, 5.0
@@ -162,7 +162,7 @@ def test_stroke_beyond_the_actuators_reach(dataset):
 
 # ---------------------------------------------------------------- synthetic recordings
 def test_synthetic_dataset_is_measured_like_a_rig(tmp_path):
-    from dfa_model.synthetic import Measurement, generate_dataset, scaled_resistivity
+    from dfa_model.io.synthetic import Measurement, generate_dataset, scaled_resistivity
     truth = preset("vshape-table1").replace(N=41)
     nominal = truth.replace(rho_l=3e12)
     meas = Measurement(noise=2e-6, quantum=0.5e-6, offset=5e-6, rho_spread=0.05)

@@ -200,7 +200,7 @@ def test_repeated_runs_keep_only_their_inputs():
     assert len(waveforms._SEGMENTS) == 1 and np.array_equal(a.rec, b.rec)
     assert waveforms.segments(proto, Load(5.0)) is waveforms.segments(proto, Load(5.0))
     assert a.unzipping_speed == b.unzipping_speed
-    from dfa_model import surrogate_kernel as sk
+    from dfa_model.numerics import surrogate_kernel as sk
     assert a.y_end[sk.X] == a.rec[-1, sk.R_X] and a.y_end[sk.QF] == a.rec[-1, sk.R_QF] and not hasattr(s, "y_end")
     proto.stages[0].waveform.frequency = 20.0      # mutated in place: a new key
     proto.stages[1].duration = 3.0

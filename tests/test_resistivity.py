@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from dfa_model import PhysicsWarning, Protocol, ResistivityLaw, DFAModel, simulate
-from dfa_model.dielectrics import LinearResistivity
+from dfa_model.physics.dielectrics import LinearResistivity
 
 
 def test_eq21_front_resistivity_matches_paper(vshape81):
@@ -58,7 +58,7 @@ def test_bad_user_law_is_reported():
 def test_spline_law_neutral_monotone_and_through_its_knots(vshape81):
     """The monotone spline law: all drops 0 is the constant law; it passes through its
     knots, never increases with the field, and is flat outside [E_lo, E_hi]."""
-    from dfa_model.dielectrics import MonotoneSplineResistivity, from_parameters
+    from dfa_model.physics.dielectrics import MonotoneSplineResistivity, from_parameters
     t = np.linspace(0, 23, 47)
     proto = Protocol.reset_then_hold(6000, 20.0)
     a = simulate(vshape81, proto, load=5.0, t_eval=t)
@@ -78,7 +78,7 @@ def test_spline_law_neutral_monotone_and_through_its_knots(vshape81):
 
 
 def test_spline_law_errors_name_the_key(vshape81):
-    from dfa_model.parameters import ParameterError
+    from dfa_model.io.parameters import ParameterError
     with pytest.raises(ParameterError, match="d_rho2"):
         vshape81.replace(law="spline", d_rho2=-0.1)
     with pytest.raises(ParameterError, match="E_hi"):
@@ -92,8 +92,8 @@ def test_spline_law_at_any_knot_count(vshape81, n_knots):
     """The spline carries 2-6 knots (n_knots), one drop fewer; two make a power law
     between its end knots. Resampled to one knot more (where the knot search starts), it
     passes through the law it came from at every new knot and stays monotone."""
-    from dfa_model.dielectrics import from_parameters
-    from dfa_model.parameters import DROP_KEYS
+    from dfa_model.physics.dielectrics import from_parameters
+    from dfa_model.io.parameters import DROP_KEYS
     drops = [0.4, 1.1, 0.0, 0.7, 0.2][:n_knots - 1]
     p = vshape81.replace(law="spline", n_knots=n_knots, **dict(zip(DROP_KEYS, drops)))
     law = from_parameters(p)
@@ -115,12 +115,12 @@ def test_spline_law_at_any_knot_count(vshape81, n_knots):
 def parameters_roundtrip(p):
     import tomllib
 
-    from dfa_model.parameters import from_dict
+    from dfa_model.io.parameters import from_dict
     return from_dict(tomllib.loads(p.to_toml()))
 
 
 def test_spline_drops_beyond_the_knots_are_an_error(vshape81):
-    from dfa_model.parameters import ParameterError
+    from dfa_model.io.parameters import ParameterError
     with pytest.raises(ParameterError, match="d_rho4: must be 0 with n_knots = 4"):
         vshape81.replace(law="spline", d_rho4=0.5)
     with pytest.raises(ParameterError, match=r"n_knots: .*2 <= value <= 6"):

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from dfa_model import DFAModel, Protocol, Stage, DC, Bipolar, simulate
-from dfa_model.equations import R_C
-from dfa_model.parameters import ParameterError
+from dfa_model.physics.equations import R_C
+from dfa_model.io.parameters import ParameterError
 
 
 def test_blocked_lossless_actuator_is_an_rc_circuit(vshape81):

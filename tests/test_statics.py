@@ -6,7 +6,7 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from dfa_model.statics import equilibrium_stroke, force_eq10, static_force
+from dfa_model.physics.statics import equilibrium_stroke, force_eq10, static_force
 
 EPS0 = 8.8541878128e-12
 
@@ -126,7 +126,7 @@ def test_force_against_angle_is_independent_of_theta0(vshape):
     """Fig. 3c (drawn from Eq. 10): the force depends on the current zipping angle only.
     Exactly so for Eq. (10); the full integral keeps a weak dependence through the
     finite film length ahead of the front (measured spread 1.8 %)."""
-    from dfa_model.kinematics import VShaped
+    from dfa_model.physics.kinematics import VShaped
     angles = np.radians([40.0, 50.0, 60.0])
     forces = []
     for th0 in (20.0, 25.0, 30.0):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from dfa_model import DC, DFAModel, Load, Protocol, Sampled, Stage, simulate
-from dfa_model.statics import equilibrium_stroke, static_force
+from dfa_model.physics.statics import equilibrium_stroke, static_force
 
 
 def test_pulling_load_stops_at_the_electrode_end(vshape81):

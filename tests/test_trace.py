@@ -5,7 +5,7 @@ import pytest
 
 from dfa_model import Bipolar, Protocol, simulate
 from dfa_model.metrics import cycles, drift_rate, last_periods
-from dfa_model.trace import GAMMA, StrokeTrace
+from dfa_model.numerics.trace import GAMMA, StrokeTrace
 
 
 def _random_trace(rng, n=200):

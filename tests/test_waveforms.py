@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from dfa_model import DC, Bipolar, Load, Protocol, Sampled, Unipolar, WaveformError, from_function, simulate
-from dfa_model.statics import equilibrium_stroke
+from dfa_model.physics.statics import equilibrium_stroke
 
 
 def test_square_waves_levels_and_switch_count():

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from dfa_model import parameters
+from dfa_model.io import parameters
 
 HERE = Path(__file__).resolve().parent.parent / "examples"
 

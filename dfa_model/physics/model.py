@@ -11,12 +11,12 @@ import numpy as np
 from . import dielectrics, kinematics
 from .equations import (B, CHI_P, DS, R_S, EPS_F, EPS_L, K, MASS, NMAT, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F, TAU_L, TAU_P, U0,
                         W, X_E, XSC)
-from .kernels import NODAL, P0_SCHEME, PAPER, diagnostics, rhs
-from .integrator import make_workspace
+from ..numerics.kernels import NODAL, P0_SCHEME, PAPER, diagnostics, rhs
+from ..numerics.integrator import make_workspace
 from .nodal import NWORK
 
 SCHEME_IDS = {"continuum": NODAL, "continuum-p0": P0_SCHEME, "paper": PAPER}
-from .parameters import Parameters
+from ..io.parameters import Parameters
 
 
 # The device voltage's error weight, in units of the amplitude. Its R_s C transient after

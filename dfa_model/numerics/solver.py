@@ -7,15 +7,16 @@ import warnings
 
 import numpy as np
 
-from . import dielectrics, interrupt, limits
-from ._jit import prepare
-from .dielectrics import PhysicsWarning
-from .equations import K, NREC
+from ..physics import dielectrics
+from .. import interrupt, limits
+from .._jit import prepare
+from ..physics.dielectrics import PhysicsWarning
+from ..physics.equations import K, NREC
 from .integrator import INTERRUPTED, MAX_STEPS, NONFINITE, OK, OUTPUT_FULL, STEP_UNDERFLOW, integrate
-from .model import DFAModel
-from .parameters import ParameterError, Parameters, check_value
-from .results import Result
-from .waveforms import Load, Protocol, WaveformError, segments
+from ..physics.model import DFAModel
+from ..io.parameters import ParameterError, Parameters, check_value
+from ..io.results import Result
+from ..waveforms import Load, Protocol, WaveformError, segments
 
 _STATUS = {MAX_STEPS: "the step limit was reached", STEP_UNDERFLOW: "the step size fell below 1e-14 s",
            NONFINITE: "the solution became non-finite", OUTPUT_FULL: "the output reached its memory limit"}
@@ -183,7 +184,7 @@ def _output_times(t_eval, T, extra_columns):
 
 def zip_force_per_volt2(model) -> float:
     """Static zipping force at x = 0 per V^2 (uncharged: the force is exactly ~ V^2)."""
-    from .statics import static_state
+    from ..physics.statics import static_state
     return abs(model.electrostatic_force(static_state(model, 0.0, 1.0), 1.0))
 
 

@@ -22,7 +22,7 @@ def _plt():
 
 
 def describe_waveform(wf) -> str:
-    from .waveforms import DC, Bipolar, Sampled, Unipolar
+    from ..waveforms import DC, Bipolar, Sampled, Unipolar
     if isinstance(wf, DC):
         return f"DC {wf.V / 1e3:g} kV"
     if isinstance(wf, Bipolar):
@@ -35,7 +35,7 @@ def describe_waveform(wf) -> str:
 
 
 def describe_load(load) -> str:
-    from .waveforms import Sampled
+    from ..waveforms import Sampled
     F = load.F
     text = f"load {F:g} N" if not (callable(F) or isinstance(F, Sampled)) else "time-varying load"
     return text + (f" + spring {load.k_load:g} N/m" if load.k_load else "")
@@ -108,7 +108,7 @@ def _current_unit(scale):
 def _voltage(ax, res):
     """The protocol's voltage, exactly (its own breakpoints, not the samples); a square wave
     with too many periods to draw is a band between its levels, named."""
-    from .waveforms import Bipolar, Unipolar
+    from ..waveforms import Bipolar, Unipolar
     b = res.protocol.boundaries
     for i, stage in enumerate(res.protocol.stages):
         t0, t1 = b[i], b[i + 1]
@@ -164,7 +164,7 @@ def plot_result(res, path=None, title=None, source=None):
     ax[3].set_ylim(lim[0] / f, lim[1] / f)
     _note_off_scale(ax[3], t, res.I / f, (lim[0] / f, lim[1] / f), "A", f)
     ax[3].set_ylabel(f"device current ({unit})")
-    from .waveforms import DC
+    from ..waveforms import DC
     dc = sum(st.duration for st in res.protocol.stages if isinstance(st.waveform, DC))
     if dc > 0.5 * res.protocol.duration and np.ptp(res.lz[ok]) > 2 * res.params.l_e / (res.params.N - 1):
         # under DC the front moves slowly across the material points, each leaving a scallop

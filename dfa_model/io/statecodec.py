@@ -98,7 +98,7 @@ def decode(data: bytes):
         raise StateCodecError(f"decode: {len(data)} bytes, shorter than the {_HEAD.size}-byte header (truncated)")
     magic, version, reserved, n_skel, n_data = _HEAD.unpack_from(data)
     if magic != MAGIC:
-        raise StateCodecError("decode: not a state written by dfa_model.statecodec (bad magic)")
+        raise StateCodecError("decode: not a state written by dfa_model.io.statecodec (bad magic)")
     if version != VERSION or reserved != 0:
         raise StateCodecError(f"decode: format version {version}, this codec reads version {VERSION}")
     if _HEAD.size + n_skel + n_data != len(data):

@@ -7,11 +7,11 @@ import json
 
 import numpy as np
 
-from . import metrics
-from .equations import (R_ANG, R_C, R_EDAMP, R_EIMPACT, R_EIN, R_EINTRA, R_EJ, R_ELOAD, R_EMAX, R_ESRC, R_F, R_FE,
+from .. import metrics
+from ..physics.equations import (R_ANG, R_C, R_EDAMP, R_EIMPACT, R_EIN, R_EINTRA, R_EJ, R_ELOAD, R_EMAX, R_ESRC, R_F, R_FE,
                         R_I, R_LZ, R_Q, R_T, R_U, R_V, R_VOLT, R_X)
 from .fileio import write_text_atomic
-from .trace import StrokeTrace
+from ..numerics.trace import StrokeTrace
 
 # what the zipping_angle column is, per layout (the CSV header says it)
 ZIPPING_ANGLE = {
@@ -89,8 +89,8 @@ class StrokeMetrics:
         if getattr(self, "_x_static", None) is None:
             import warnings
 
-            from .dielectrics import PhysicsWarning
-            from .statics import equilibrium_stroke
+            from ..physics.dielectrics import PhysicsWarning
+            from ..physics.statics import equilibrium_stroke
             t1 = self.protocol.duration
             F = float(self.load.piecewise(t1)(t1))
             with warnings.catch_warnings():

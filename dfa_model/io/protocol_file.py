@@ -36,8 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from .fileio import toml_float, write_text_atomic
-from .limits import MAX_DURATION
-from .waveforms import DC, Bipolar, Load, Protocol, Sampled, Stage, Unipolar, WaveformError, balanced_phase
+from ..limits import MAX_DURATION
+from ..waveforms import DC, Bipolar, Load, Protocol, Sampled, Stage, Unipolar, WaveformError, balanced_phase
 
 WAVEFORMS = ("dc", "bipolar", "unipolar", "sampled")
 COMMON = ("name", "waveform", "duration")

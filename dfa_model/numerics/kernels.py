@@ -1,11 +1,11 @@
 """One entry point per kernel for all schemes (ids: 0 continuum-p0, 1 paper, 2 continuum)."""
 from __future__ import annotations
 
-from ._jit import njit
+from .._jit import njit
 
-from .equations import C_SCHEME, diagnostics as diag_elem, factor as factor_blk, jacobian as jac_blk, rhs as rhs_elem
-from .equations import solve as solve_blk
-from .nodal import diagnostics_p1, factor_p1, jacobian_p1, rhs_p1, solve_p1
+from ..physics.equations import C_SCHEME, diagnostics as diag_elem, factor as factor_blk, jacobian as jac_blk, rhs as rhs_elem
+from ..physics.equations import solve as solve_blk
+from ..physics.nodal import diagnostics_p1, factor_p1, jacobian_p1, rhs_p1, solve_p1
 
 P0_SCHEME, PAPER, NODAL = 0, 1, 2
 

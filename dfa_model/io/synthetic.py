@@ -1,6 +1,6 @@
 """Synthetic recordings: a truth model with hidden effects, measured like a real rig.
 
-    from dfa_model.synthetic import Measurement, generate_dataset
+    from dfa_model.io.synthetic import Measurement, generate_dataset
     truth = preset("vshape-table1").replace(k=300.0)          # a hidden stiffness
     generate_dataset("ds/", truth, nominal=preset("vshape-table1"),
                      conditions=[(6000, 3), (6000, 5), (8000, 5)], repetitions=3, seed=1)
@@ -40,11 +40,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .dielectrics import ResistivityLaw
-from .model import DFAModel
+from ..physics.dielectrics import ResistivityLaw
+from ..physics.model import DFAModel
 from .parameters import Parameters
-from .solver import simulate
-from .waveforms import DC, Bipolar, Protocol, Stage, Unipolar
+from ..numerics.solver import simulate
+from ..waveforms import DC, Bipolar, Protocol, Stage, Unipolar
 
 
 TRUTH_RTOL = 1e-7   # the truth model's integrator tolerance (at most)

@@ -17,7 +17,7 @@ material zipped long ago; renewing the layer from the points directly locked a f
 turned back into running away from the charge it had just left).
 
 Every charge state is a material point with pointwise physics, the full model's own
-(dfa_model.nodal): for an inverse gap 1/u and a screening thickness T0',
+(dfa_model.physics.nodal): for an inverse gap 1/u and a screening thickness T0',
 
     sigma_l = (eps_l V_d - T0' q) / u,   J_l = law(sigma_l / eps_l) (equations.j_of_E),
     dP/dt   = (chi_p sigma_l - P) / tau_p                (polarization branch),
@@ -53,8 +53,8 @@ import math
 
 import numpy as np
 
-from ._jit import njit
-from .equations import j_and_slope, j_of_E
+from .._jit import njit
+from ..physics.equations import j_and_slope, j_of_E
 
 # state indices
 X, VEL, VD, QF, PF, QB, PB, QA, PA = range(9)

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from ._jit import njit
+from .._jit import njit
 
 from .equations import (B, C_LAYOUT, C_M, C_NBORD, C_POL, C_RS, CHI_P, DS, EPS_L, MASS, R_S, T0, TAU_F, TAU_P, U0, W,
                         X_E, XSC,

@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from ._jit import njit
+from .._jit import njit
 
 V_SHAPED, PEANO = 0, 1
 HALF_PI = 0.5 * math.pi

@@ -18,11 +18,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from ._jit import njit
+from .._jit import njit
 
-from .equations import C_NB, C_NBORD, C_RS, C_SCHEME, K, MASS, NPOW, NREC, R_C, R_EIN, R_T, R_X, X_E, XSC
+from ..physics.equations import C_NB, C_NBORD, C_RS, C_SCHEME, K, MASS, NPOW, NREC, R_C, R_EIN, R_T, R_X, X_E, XSC
 from .kernels import diagnostics, factor, jacobian, solve
-from .nodal import NWORK
+from ..physics.nodal import NWORK
 
 NODAL_ID = 2   # kernels.NODAL
 from .kernels import rhs as rhs_any
@@ -241,7 +241,7 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     in place. A breakpoint where neither input jumps keeps f and the Newton matrix.
     one_step: return after the first accepted step, recording its start, stage and end
     (a stepping caller interpolates its communication points there, see
-    dfa_model.stepper).
+    dfa_model.numerics.stepper).
 
     interrupt: one int64, the caller's interrupt flag (dfa_model.interrupt), read before
     every step and every dense output: once it is nonzero the call returns with status

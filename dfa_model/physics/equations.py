@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from ._jit import njit
+from .._jit import njit
 
 from .kinematics import V_SHAPED, front_slope, kin_eval, profile, zipping_angle
 

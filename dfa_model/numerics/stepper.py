@@ -12,11 +12,11 @@ import math
 
 import numpy as np
 
-from . import limits
-from .equations import K, R_ANG, R_C, R_FE, R_I, R_LZ, R_U, R_V, R_X
+from .. import limits
+from ..physics.equations import K, R_ANG, R_C, R_FE, R_I, R_LZ, R_U, R_V, R_X
 from .integrator import GAMMA, I_HN, I_STOP, I_STUCK, OK, integrate
-from .model import DFAModel
-from .parameters import Parameters
+from ..physics.model import DFAModel
+from ..io.parameters import Parameters
 from .solver import _STATUS, SolverError, check_mechanics, zip_force_per_volt2
 
 NO_INTERRUPT = np.zeros(1, dtype=np.int64)   # integrate's interrupt flag: a step is short, never stopped
@@ -196,7 +196,7 @@ class Stepper:
 
     def check_state(self, state: tuple) -> None:
         """Raise ValueError if `state`, of get_state's structure (checked by the caller,
-        e.g. dfa_model.statecodec.check_like), holds values the compiled solver must not
+        e.g. dfa_model.io.statecodec.check_like), holds values the compiled solver must not
         be given: it indexes the force jumps with the stuck index and steps with the next
         step size. For states from outside (a deserialized FMU state)."""
         n_steps, y, ist, snap, poly = state[5], state[6], state[8], state[10], state[11]

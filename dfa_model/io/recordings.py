@@ -94,7 +94,7 @@ import numpy as np
 
 from .parameters import Parameters, ParameterError
 from .parameters import load as load_parameters
-from .waveforms import DC, Load, Protocol, Sampled, Stage
+from ..waveforms import DC, Load, Protocol, Sampled, Stage
 
 REQUIRED = ("time", "voltage", "force", "stroke")
 OPTIONAL = ("current",)
@@ -795,7 +795,7 @@ def read_dataset(folder) -> Dataset:
             raise RecordingError(f"{folder}: {stems[f.stem]} and {f.name} are both recording '{f.stem}'; "
                                  f"rename one")
         stems[f.stem] = f.name
-    from .kinematics import make
+    from ..physics.kinematics import make
     x_e = float(make(params).x_e)
     recs = [read_recording(f, x_e, layout) for f in files]
     group_conditions(recs)

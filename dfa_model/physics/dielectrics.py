@@ -156,7 +156,7 @@ def from_parameters(p) -> ResistivityLaw:
 
 def spline_drops(p) -> tuple:
     """The spline law's drops in p (d_rho1 ... d_rho{n_knots - 1})."""
-    from .parameters import DROP_KEYS
+    from ..io.parameters import DROP_KEYS
     return tuple(getattr(p, k) for k in DROP_KEYS[:p.n_knots - 1])
 
 

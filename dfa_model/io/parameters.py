@@ -18,6 +18,8 @@ from types import SimpleNamespace
 
 from .fileio import toml_float
 
+_PKG = __package__.rpartition(".")[0]      # the model package, where presets/ lives
+
 EPS0 = 8.8541878128e-12  # vacuum permittivity, F/m
 
 LAYOUTS = ("v-shaped", "peano-hasel")
@@ -170,7 +172,7 @@ class Parameters:
         half curvature angle from Eq. (22) (peano-hasel)."""
         if self.layout == "v-shaped":
             return 2.0 * math.asin(self.a / self.l)
-        from .kinematics import PeanoHasel
+        from ..physics.kinematics import PeanoHasel
         return PeanoHasel(self).theta0
 
     def replace(self, **changes) -> "Parameters":
@@ -300,7 +302,7 @@ def validate(p: Parameters) -> None:
         if p.l_e > p.l - p.a:
             raise ParameterError(f"l_e: electrode length {p.l_e:g} m must be <= l - a = {p.l - p.a:g} m")
     else:
-        from .kinematics import peano_lz_max
+        from ..physics.kinematics import peano_lz_max
         lz_max = peano_lz_max(p.l, p.volume / p.w)
         if lz_max <= 0:
             raise ParameterError(f"volume: {p.volume:g} m^3 does not fit a pouch of l = {p.l:g} m, w = {p.w:g} m; "
@@ -411,14 +413,14 @@ def load(path) -> Parameters:
 def preset(name: str) -> Parameters:
     if name not in PRESETS:
         raise ParameterError(f"preset: unknown preset {name!r}; available: {', '.join(PRESETS)}")
-    text = resources.files(__package__).joinpath("presets", PRESETS[name]).read_text()
+    text = resources.files(_PKG).joinpath("presets", PRESETS[name]).read_text()
     return from_dict(tomllib.loads(text), source=f"preset {name}")
 
 
 def preset_text(name: str) -> str:
     """The preset file as shipped (with comments)."""
     preset(name)  # validates the name
-    return resources.files(__package__).joinpath("presets", PRESETS[name]).read_text()
+    return resources.files(_PKG).joinpath("presets", PRESETS[name]).read_text()
 
 
 def apply_sets(p: Parameters, assignments) -> Parameters:
