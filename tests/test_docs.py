@@ -61,7 +61,8 @@ def test_site_builds_strict(tmp_path):
     assert "WARNING" not in proc.stderr, proc.stderr[-6000:]
     assert (site / "index.html").is_file() and (site / "reference" / "api" / "dfa_model" / "index.html").is_file()
     # the example figures are served from examples/figures (docs/hooks.py), not copied into git
-    used = {m for page in DOCS.rglob("*.md") for m in re.findall(r"figures/([\w-]+\.png)", page.read_text())}
+    link = re.compile(r"\]\((?:\.\./)*figures/([\w-]+\.png)\)")
+    used = {m for page in DOCS.rglob("*.md") for m in link.findall(page.read_text())}
     assert used, "no figure in the docs"
     for name in used:
         assert (ROOT / "examples" / "figures" / name).is_file() and (site / "figures" / name).is_file(), name
