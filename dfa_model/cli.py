@@ -279,7 +279,7 @@ def _add_protocol_flags(ps, protocol_file=False):
                     help="amplitude, V" + (" (or --protocol FILE)" if protocol_file else ""))
     if protocol_file:
         ps.add_argument("--protocol", metavar="DRIVE.toml",
-                        help="the drive as a protocol file (README, 'Protocol file'), instead of --voltage, "
+                        help="the drive as a protocol file (docs/reference/protocol-file.md), instead of --voltage, "
                              "--waveform, --frequency, --duty, --reset, --duration")
     ps.add_argument("--force", type=_number(-limits.MAX_FORCE, limits.MAX_FORCE), default=None,
                     help="load opposing zipping, N (default: the protocol file's [load], else 0)")
@@ -388,7 +388,7 @@ def _main(argv, interrupt):
         print(f"dfa: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return EXIT_USAGE
     except MemoryError:
-        print("dfa: error: out of memory (see the limits in README, 'Reliability')", file=sys.stderr)
+        print("dfa: error: out of memory (see the limits in docs/reliability.md)", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         print("dfa: interrupted", file=sys.stderr)

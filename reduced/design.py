@@ -249,7 +249,7 @@ def design_inversion(s, V, F, max_ripple, max_drift, horizon, slew_rate=None, cu
     f_min, f_max, notes = window
     if share != 0.5:
         notes.append("an unequal share: the surrogate's drift under the mean voltage is a stated breakdown "
-                     "(README, 'Surrogates'); trust the full model's check (verified)")
+                     "(docs/guide/surrogates.md); trust the full model's check (verified)")
     frequency = min(f_max, 1.25 * f_min)
     verified, checks = None, []
     if verify and frequency * horizon > VERIFY_PERIODS:

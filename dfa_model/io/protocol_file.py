@@ -330,7 +330,7 @@ def to_toml(protocol: Protocol, header=None, _files=None) -> str:
     (read back, it is the same drive to the last bit); sampled signals inline.
     `header`: comment lines to start with (provenance)."""
     lines = [f"# {h}" if h else "#" for h in (header.splitlines() if isinstance(header, str) else header or [])]
-    lines.append("# dfa protocol file: stages in order, SI units (README, 'Protocol file')")
+    lines.append("# dfa protocol file: stages in order, SI units (docs/reference/protocol-file.md)")
     for i, st in enumerate(protocol.stages):
         name = _files(i, st) if _files else None
         lines += [""] + _stage_toml(st, i, name, _files and _files.write)
