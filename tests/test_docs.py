@@ -110,3 +110,27 @@ def test_cli_reference_lists_every_flag():
         section = page.split(f"## dfa {cmd}\n", 1)[1].split("\n## ", 1)[0]
         for flag in sorted(set(re.findall(r"(?<![\w-])--[a-z][a-z-]*", proc.stdout)) - {"--help"}):
             assert flag in section, f"dfa {cmd} {flag} is not in docs/reference/cli.md"
+
+
+def test_the_extension_guide_example_runs():
+    """docs/extending.md's worked example (a law as a Python object) runs as printed, its
+    law falls with the field, and the solver's table of it is the law's own curve."""
+    import re
+
+    import numpy as np
+    text = (Path(__file__).resolve().parent.parent / "docs" / "extending.md").read_text()
+    code = re.findall(r"```python\n(.*?)```", text, re.S)[0]
+    ns: dict = {}
+    exec(compile(code.replace("print(res.unzipping_speed)", ""), "extending.md", "exec"), ns)
+    law, res = ns["model"].law, ns["res"]
+    assert type(law).__name__ == "ExponentialResistivity" and np.isfinite(res.unzipping_speed)
+    E = np.geomspace(1e6, 1e8, 5)
+    assert np.all(np.diff(law.rho(E)) < 0) and np.all(_solver_sees(law, E))
+
+
+def _solver_sees(law, E):
+    """What the solver sees (the tabulated law) is the law's own curve within 0.1 %."""
+    import numpy as np
+
+    from dfa_model import ResistivityLaw
+    return np.isclose(ResistivityLaw.rho(law, E), law.rho(E), rtol=1e-3)
