@@ -17,6 +17,7 @@ MOVED = {
 
 class _Finder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     def __init__(self, package: str):
+        self.package = package
         self.old = {f"{package}.{m}": f"{package}.{group}.{m}" for group, ms in MOVED.items() for m in ms}
 
     def find_spec(self, fullname, path=None, target=None):
@@ -35,6 +36,5 @@ class _Finder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
 def install(package: str) -> None:
     """Resolve the old paths under `package` (dfa_model, or the FMU's bundled copy)."""
-    if not any(isinstance(f, _Finder) and f.old and next(iter(f.old)).startswith(package + ".")
-               for f in sys.meta_path):
+    if not any(isinstance(f, _Finder) and f.package == package for f in sys.meta_path):
         sys.meta_path.insert(0, _Finder(package))     # before any path finder: the old names are ours

@@ -198,8 +198,7 @@ def _near_noise(f) -> bool:
     candidate is far from its probes: a branch of tau_p = 2.9 s, probed from 0.3 and 3 s
     with a level the baseline had bent to mimic it, predicted 1/30 of its fall, and a
     spline law that left the held-out error at 9x the noise was kept in its place."""
-    rmse = f.heldout_rmse if f.heldout_rmse is not None else f.train_rmse
-    return rmse <= SKIP_FLOOR * f.sigma
+    return _error(f) <= SKIP_FLOOR * f.sigma
 
 
 def _accept(f, ref) -> bool:

@@ -25,11 +25,7 @@ def register(sub) -> None:
 
 
 def cmd_fmu_build(args):
-    try:
-        from . import BuildError, build_fmu
-    except ImportError as exc:
-        raise base.CLIError(f"fmu build: pythonfmu is not available ({exc}); install with pip install "
-                            f"'dfa-toolkit[fmu]'")
+    from . import BuildError, build_fmu    # light: pythonfmu is imported by the build itself
     if args.drive is not None and not args.system:
         raise base.CLIError("--drive: only with --system (the drive FMU is part of the system; the actuator FMU alone "
                        "takes its voltage as an input)")
