@@ -25,8 +25,8 @@ import numpy as np
 HERE = Path(__file__).parent
 # modules whose njit functions go into the compiled code, under the package (also: what
 # _jitcache hashes); EXPORTS and Kernel name them by their last part
-KERNEL_MODULES = ("physics.equations", "physics.nodal", "physics.kinematics", "numerics.integrator",
-                  "numerics.kernels", "numerics.surrogate_kernel")
+KERNEL_MODULES = ("physics.equations", "physics.nodal", "physics.kinematics", "numerics.stepping", "numerics.kernels",
+                  "numerics.stops", "numerics.records", "numerics.integrator", "numerics.surrogate_kernel")
 AOT_MODULE = "_kernels_aot"
 
 # The compiled exports: "module.function" -> argument codes, result code. Codes:

@@ -10,8 +10,8 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
-KERNEL_MODULES = ("physics/equations", "physics/nodal", "physics/kinematics", "numerics/integrator",
-                  "numerics/kernels", "numerics/surrogate_kernel")
+KERNEL_MODULES = ("physics/equations", "physics/nodal", "physics/kinematics", "numerics/stepping", "numerics/kernels",
+                  "numerics/stops", "numerics/records", "numerics/integrator", "numerics/surrogate_kernel")
 
 
 def refresh() -> None:

@@ -96,3 +96,16 @@ def test_jit_cache_is_dropped_when_kernel_sources_change(tmp_path, monkeypatch):
     (pkg / "physics" / "nodal.py").write_text("# changed\n")
     jc.refresh()
     assert not stale.exists()                      # a kernel source changed: cache dropped
+
+
+def test_jit_cache_hashes_every_kernel_module():
+    """_jitcache keeps its own list (it runs before anything is compiled or loaded): it
+    must name every module whose kernels are compiled, or an edit there keeps stale code."""
+    from dfa_model import _jit, _jitcache
+    assert [m.replace("/", ".") for m in _jitcache.KERNEL_MODULES] == list(_jit.KERNEL_MODULES)
+    import pathlib
+    import re
+    pkg = pathlib.Path(_jit.__file__).parent
+    compiled = sorted(str(f.relative_to(pkg).with_suffix("")).replace("/", ".") for f in pkg.rglob("*.py")
+                      if re.search(r"^@njit", f.read_text(), re.M))
+    assert compiled == sorted(_jit.KERNEL_MODULES)

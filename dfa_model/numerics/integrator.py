@@ -20,35 +20,21 @@ import math
 import numpy as np
 from .._jit import njit
 
-from ..physics.equations import C_NB, C_NBORD, C_RS, C_SCHEME, K, MASS, NPOW, NREC, R_C, R_EIN, R_T, R_X, X_E, XSC
-from .kernels import diagnostics, factor, jacobian, solve
+from ..physics.equations import C_NB, C_NBORD, C_RS, C_SCHEME, NPOW, NREC, R_C, X_E, XSC
+from .kernels import diagnostics_b, factor_b, jacobian_b, rhs_b, solve_b
 from ..physics.nodal import NWORK
+from .records import dense_outputs, energy_step, record, step_nodes
+from .stepping import grow, grow_factor, shrink_factor
+from .stops import attracting, held, push, settle_event, sliding_point, stop_event, touching
+from .trbdf2 import (DG, E0, E1, E2, EV_PREV, EV_T, EV_WA, EV_WB, G_E, G_P0, G_P1, G_ROWS, GAMMA, I_AFTERJ, I_ETA, I_F, I_F0OK,
+                     I_GHOLD, I_HFACT, I_HJUMP, I_HN, I_JOK, I_STOP, I_STUCK, INTERRUPTED, MAX_STEPS, N_COUNTERS,
+                     N_EVTRIES, N_FEV, N_JAC, N_OUT, N_REC, N_REJ, N_STEPS, N_TR, NONFINITE, OK, OUTPUT_FULL,
+                     STEP_UNDERFLOW, W_BASE, W_DZ, W_ERR, W_F0, W_F1, W_F2, W_FBASE, W_FZ, W_RES, W_TMP, W_YTMP,
+                     W_Z1, W_Z2, WTR)
 
 NODAL_ID = 2   # kernels.NODAL
-from .kernels import rhs as rhs_any
-
-GAMMA = 2.0 - math.sqrt(2.0)
-DG = GAMMA / 2.0
-WTR = math.sqrt(2.0) / 4.0
-# b - b_hat of the embedded companion: [(4w-1)/3, -1/3, 2d/3]
-E0 = (4.0 * WTR - 1.0) / 3.0
-E1 = -1.0 / 3.0
-E2 = 2.0 * DG / 3.0
 NEWTON_TOL = 0.05
 MAXIT = 8
-
-OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE, OUTPUT_FULL, INTERRUPTED = 0, 1, 2, 3, 4, 5
-# carried controller state `ist` (see make_workspace): Jacobian valid, step of the stored
-# factorization, Newton contraction estimate, next step size, stuck index, f0 valid, the
-# load at the end of the last call (its voltage is the caller's V_prev), and the stop the
-# stroke rests on (-1: x = 0, +1: x = x_e, 0: free) with the net zipping force there, the
-# step to start the next voltage jump with (-1: none yet) and whether the step after the
-# last jump is still to come
-I_JOK, I_HFACT, I_ETA, I_HN, I_STUCK, I_F0OK, I_F, I_STOP, I_GHOLD, I_HJUMP, I_AFTERJ = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10
-# impact energy slot of the energy accumulators (equations.NPOW)
-E_IMPACT = 6
-# a stop event (impact, release) is located by at most this many retried steps
-EV_TRIES = 6
 
 
 def make_workspace(n, ne, nb, h0):
@@ -64,7 +50,7 @@ def make_workspace(n, ne, nb, h0):
     return ws, ist
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _wnorm(v, y, y2, scale, rtol, nbord):
     """Scaled max-norm. An RMS would dilute the few charge states at the zipping
     front, to which the stroke is most sensitive, by sqrt(N): steps then passed the
@@ -77,68 +63,25 @@ def _wnorm(v, y, y2, scale, rtol, nbord):
     return mx
 
 
-@njit(cache=True)
-def _grow(buf, nrow):
-    if nrow < buf.shape[0]:
-        return buf
-    nb = np.empty((2 * buf.shape[0], buf.shape[1]))
-    nb[:buf.shape[0]] = buf
-    return nb
-
-
-@njit(cache=True)
-def _record(cfg, geo, mat, law, lawp, t, V, dVdt, F, y, ydot, E, kin, work, row, P):
-    row[:] = 0.0
-    diagnostics(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, work, row, P)
-    row[R_T] = t
-    row[R_X] = y[0]
-    for i in range(NPOW):
-        row[R_EIN + i] = E[i]
-
-
-@njit(cache=True)
-def _dense_record(cfg, geo, mat, law, lawp, s, h, to, y, z1, z2, V, Vs, F, E, yi, ydi, kin, work, row, P):
-    """Record the outputs at time `to`, the fraction s of the step of size h: the
-    quadratic through the step's values y (start), z1 (stage, s = gamma) and z2 (end).
-    Values only: a Hermite cubic would carry the fast modes' start slopes, h f, across
-    a long stiff step and overshoot between the ends."""
-    n = y.shape[0]
-    g = GAMMA
-    l0 = (s - g) * (s - 1.0) / g
-    l1 = s * (s - 1.0) / (g * (g - 1.0))
-    l2 = s * (s - g) / (1.0 - g)
-    d0 = (2.0 * s - g - 1.0) / (g * h)
-    d1 = (2.0 * s - 1.0) / (g * (g - 1.0) * h)
-    d2 = (2.0 * s - g) / ((1.0 - g) * h)
-    for i in range(n):
-        yi[i] = l0 * y[i] + l1 * z1[i] + l2 * z2[i]
-        ydi[i] = d0 * y[i] + d1 * z1[i] + d2 * z2[i]
-    yi[0] = min(max(yi[0], 0.0), mat[X_E])     # the interpolant's overshoot past a stop
-    if y[0] == z1[0] and z1[0] == z2[0]:       # held (a stop, a sliding point): exactly
-        yi[0] = y[0]
-        ydi[0] = 0.0
-    _record(cfg, geo, mat, law, lawp, to, V, Vs, F, yi, ydi, E, kin, work, row, P)
-
-
-@njit(cache=True)
-def _newton(cfg, geo, mat, law, lawp, V, F, z, base, gh, held, fz, res, dz, y, scale, rtol, Winv, zeta, Jbe, Jbb, tri,
-            cp, dinv, S, fb, kin, work, jbe, eta):
+@njit(cache=True, _nrt=False)
+def _newton(M, wk, ws, V, F, z, base, gh, hold, w, y, scale, rtol, fb, eta):
     """Simplified Newton for a stage z = base + gh f(z) with the factored matrix.
     `eta` carries the contraction estimate theta/(1 - theta) from earlier iterations
     (Hairer & Wanner's RADAU5 strategy): one iteration suffices when Newton contracts
-    fast. With `held`, the stroke is stuck at a force jump or rests on a stop (the
+    fast. With `hold`, the stroke is stuck at a force jump or rests on a stop (the
     mechanical rates are zero). Returns (converged, iterations, eta)."""
     n = z.shape[0]
-    nbord = cfg[C_NBORD]
+    nbord = M[0][C_NBORD]
+    fz, res, dz = w[W_FZ], w[W_RES], w[W_DZ]
     nprev = 0.0
     for it in range(MAXIT):
-        rhs_any(cfg, geo, mat, law, lawp, V, F, z, fz, kin, work, tri, jbe)
-        if held:
+        rhs_b(M, wk, V, F, z, fz)
+        if hold:
             for i in range(nbord):
                 fz[i] = 0.0
         for i in range(n):
             res[i] = -(z[i] - base[i] - gh * fz[i])
-        solve(cfg, mat, gh, Winv, zeta, Jbe, Jbb, tri, cp, dinv, S, fb, res, dz)
+        solve_b(M, ws, gh, fb, res, dz)
         for i in range(n):
             z[i] += dz[i]
         nrm = _wnorm(dz, y, z, scale, rtol, nbord)
@@ -158,58 +101,163 @@ def _newton(cfg, geo, mat, law, lawp, V, F, z, base, gh, held, fz, res, dz, y, s
     return False, MAXIT, eta
 
 
-@njit(cache=True)
-def _net(cfg, geo, mat, law, lawp, V, F, y, x, tmp, ytmp, kin, work, tri, jbe):
-    """Stroke rate dx/dt with the stroke set to x (other states as in y)."""
-    for i in range(y.shape[0]):
-        ytmp[i] = y[i]
-    ytmp[0] = x
-    rhs_any(cfg, geo, mat, law, lawp, V, F, ytmp, tmp, kin, work, tri, jbe)
-    return tmp[0]
+@njit(cache=True, _nrt=False)
+def _begin_segment(M, wk, ws, ist, cnt, w, y, sidx, seg_t, seg_V0, seg_Vs, seg_F0, seg_Fs, V_prev, want_energy, eg,
+                   row, xc, eps_x):
+    """Jump handling at the breakpoint that starts segment sidx. A voltage jump moves
+    charge instantly (continuum scheme; its energy is booked). Where neither input jumps,
+    f and the Newton matrix carry on (a stepping caller passes the same input again);
+    otherwise f is taken at the new inputs, the Newton matrix is flipped (a polarity
+    inversion) or dropped, and a stroke stuck at a force jump or on a stop stays or
+    leaves with the new force."""
+    cfg, mat = M[0], M[2]
+    nbord = cfg[C_NBORD]
+    f0, tmp, ytmp = w[W_F0], w[W_TMP], w[W_YTMP]
+    ta = seg_t[sidx]
+    V0, F0 = seg_V0[sidx], seg_F0[sidx]
+    if sidx == 0:
+        Vleft = V_prev
+        Fleft = ist[I_F]      # only read once a call has written it (jac_ok or f0 valid)
+    else:
+        Vleft = seg_V0[sidx - 1] + seg_Vs[sidx - 1] * (ta - seg_t[sidx - 1])
+        Fleft = seg_F0[sidx - 1] + seg_Fs[sidx - 1] * (ta - seg_t[sidx - 1])
+    smooth = V0 == Vleft and F0 == Fleft and seg_Vs[sidx] == 0.0 and seg_Fs[sidx] == 0.0 and ist[I_F0OK] > 0.0
+    if want_energy and cfg[C_SCHEME] != 1 and cfg[C_RS] == 0 and V0 != Vleft:
+        rhs_b(M, wk, Vleft, F0, y, f0)
+        diagnostics_b(M, wk, Vleft, 0.0, F0, y, f0, row, eg[G_P0])
+        C = row[R_C]
+        dV = V0 - Vleft
+        eg[G_E, 0] += V0 * C * dV
+        eg[G_E, 3] += 0.5 * C * dV * dV
+    if smooth:
+        fkeep = ws[11]
+        for i in range(y.shape[0]):
+            f0[i] = fkeep[i]
+        return
+    rhs_b(M, wk, V0, F0, y, f0)
+    cnt[N_FEV] += 1
+    if V0 != Vleft:
+        if ist[I_HJUMP] > 0.0:
+            ist[I_HN] = min(ist[I_HN], ist[I_HJUMP])
+        ist[I_AFTERJ] = 1.0
+    if ist[I_JOK] > 0.0 and V0 == -Vleft and V0 != 0.0 and F0 == Fleft and cfg[C_RS] == 0:
+        # polarity inversion: the q-x couplings scale with A = eps_l V - T0 q and flip
+        # sign, the rest is unchanged for small q; a good Newton matrix for free
+        # (Newton's convergence test still guards the result)
+        Jeb, Jbe = ws[1], ws[2]
+        for i in range(Jeb.shape[0]):
+            for c in range(cfg[C_NB]):
+                Jeb[i, c] = -Jeb[i, c]
+                if c == 0 or cfg[C_SCHEME] != NODAL_ID:   # the force's P-derivative ~ P: unchanged
+                    Jbe[i, c] = -Jbe[i, c]
+        ist[I_HFACT] = -1.0
+    else:
+        ist[I_JOK] = 0.0
+    stuck = int(ist[I_STUCK])
+    if stuck >= 0:
+        if attracting(M, wk, V0, F0, y, xc[stuck], eps_x, tmp, ytmp):
+            f0[0] = 0.0
+        else:
+            ist[I_STUCK] = -1.0
+    touch = touching(y, nbord, mat[X_E])
+    new_stop = 0
+    if touch != 0:
+        g = push(M, wk, V0, F0, y, tmp)[0]
+        ist[I_GHOLD] = g
+        cnt[N_FEV] += 1
+        if held(touch, g):
+            new_stop = touch
+    if new_stop != int(ist[I_STOP]):
+        ist[I_STOP] = new_stop
+        ist[I_JOK] = 0.0
+        cnt[N_EVTRIES] = 0
+    if new_stop != 0:
+        for i in range(nbord):
+            f0[i] = 0.0
 
 
-@njit(cache=True)
-def _attracting(cfg, geo, mat, law, lawp, V, F, y, xk, eps, tmp, ytmp, kin, work, tri, jbe):
-    return (_net(cfg, geo, mat, law, lawp, V, F, y, xk - eps, tmp, ytmp, kin, work, tri, jbe) > 0.0 and
-            _net(cfg, geo, mat, law, lawp, V, F, y, xk + eps, tmp, ytmp, kin, work, tri, jbe) < 0.0)
+@njit(cache=True, _nrt=False)
+def _newton_matrix(M, wk, ws, ist, cnt, w, y, V, F, h, fb):
+    """The Newton matrix I - d h J for a step h: the Jacobian is kept across steps while
+    Newton converges fast; it is renewed at every breakpoint (unless flipped there), on
+    slow or failed convergence and when the stroke sticks or is released. Returns
+    whether it was renewed now."""
+    fresh = False
+    if not ist[I_JOK] > 0.0:
+        jacobian_b(M, wk, ws, V, F, y, w[W_FBASE], w[W_TMP], w[W_YTMP])
+        if ist[I_STUCK] >= 0 or ist[I_STOP] != 0:    # the stroke is held: its rows decouple
+            nbord = M[0][C_NBORD]
+            Jbe, Jbb = ws[2], ws[3]
+            for a in range(Jbb.shape[0]):
+                for b in range(Jbb.shape[1]):
+                    if a < nbord or b < nbord:   # (a series resistance's V_d keeps its own)
+                        Jbb[a, b] = 0.0
+            Jbe[:, :] = 0.0
+        cnt[N_JAC] += 1
+        cnt[N_FEV] += 2
+        ist[I_JOK] = 1.0
+        fresh = True
+        ist[I_HFACT] = -1.0
+        ist[I_ETA] = 1.0
+    if h != ist[I_HFACT]:
+        factor_b(M, ws, DG * h, fb)
+        ist[I_HFACT] = h
+    ist[I_ETA] = max(ist[I_ETA], 1e-16) ** 0.8
+    return fresh
 
 
-@njit(cache=True)
-def _push(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, work, tri, jbe):
-    """Net force towards zipping at state y, -(F + k x + F_e) (N), and its scale
-    |F| + |k x| + |F_e| (for a tolerance); ydot receives f(y)."""
-    Fe = rhs_any(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, work, tri, jbe)
-    return -(F + mat[K] * y[0] + Fe), abs(F) + abs(mat[K] * y[0]) + abs(Fe)
+@njit(cache=True, _nrt=False)
+def _stages(M, wk, ws, ist, cnt, w, y, t, h, ta, V0, Vs, F0, Fs, hold, scale, rtol, fb):
+    """TR-BDF2's two implicit stages: the trapezoidal rule to t + gamma h (z1), then BDF2
+    to t + h (z2), each solved by simplified Newton. Returns (converged, slow: more than
+    two iterations in a stage)."""
+    gh = DG * h
+    x_e = M[2][X_E]
+    n = y.shape[0]
+    z1, z2, f0, f1, base = w[W_Z1], w[W_Z2], w[W_F0], w[W_F1], w[W_BASE]
+    tg = t + GAMMA * h
+    for i in range(n):
+        z1[i] = y[i] + GAMMA * h * f0[i]
+        base[i] = y[i] + gh * f0[i]
+    z1[0] = min(max(z1[0], 0.0), x_e)     # predictors start inside the stops
+    conv, its, eta = _newton(M, wk, ws, V0 + Vs * (tg - ta), F0 + Fs * (tg - ta), z1, base, gh, hold, w, y, scale,
+                             rtol, fb, ist[I_ETA])
+    ist[I_ETA] = eta
+    cnt[N_FEV] += its
+    slow = its > 2
+    if not conv:
+        return False, slow
+    for i in range(n):
+        f1[i] = (z1[i] - base[i]) / gh
+    t2 = t + h
+    for i in range(n):
+        z2[i] = z1[i] + (1.0 - GAMMA) * h * f1[i]
+        base[i] = y[i] + h * WTR * (f0[i] + f1[i])
+    z2[0] = min(max(z2[0], 0.0), x_e)
+    conv, its, eta = _newton(M, wk, ws, V0 + Vs * (t2 - ta), F0 + Fs * (t2 - ta), z2, base, gh, hold, w, y, scale,
+                             rtol, fb, eta)
+    ist[I_ETA] = eta
+    cnt[N_FEV] += its
+    return conv, slow or its > 2
 
 
-@njit(cache=True)
-def _touching(y, nbord, x_e):
-    """The stop the state touches, moving into it or at rest: -1 (x = 0), +1 (x_e), 0."""
-    if y[0] <= 0.0 and (nbord == 1 or y[1] <= 0.0):
-        return -1
-    if y[0] >= x_e and (nbord == 1 or y[1] >= 0.0):
-        return 1
-    return 0
-
-
-@njit(cache=True)
-def _held(stop, g):
-    """Whether a stroke on `stop` stays there under the net zipping force g."""
-    return (stop < 0 and g <= 0.0) or (stop > 0 and g >= 0.0)
-
-
-@njit(cache=True)
-def _event_retry(t, h, f0, f1, ev_t, wa, wb, prev):
-    """The step [t, t + h] ends past a stop event (event function f0 at t, f1 at t + h,
-    opposite signs). Returns the fraction of the step to try next, the secant root with
-    Illinois weights, and the bracket's new weights and last outcome: the far end is new
-    (unless the step only re-reached the old one, ev_t), the near end kept, and a near
-    end kept twice in a row has its weight halved."""
-    if t + h != ev_t:
-        wa = wa * 0.5 if prev == 1 else wa
-        wb = 1.0
-        prev = 1
-    return min(0.999, max(1e-3, wa * f0 / (wa * f0 - wb * f1))), wa, wb, prev
+@njit(cache=True, _nrt=False)
+def _error_norm(M, ws, w, y, h, hold, scale, rtol, fb):
+    """f at the end stage, and the embedded companion's local error, filtered through
+    (I - d h J)^-1 (stiff components do not inflate it), in the scaled max-norm."""
+    gh = DG * h
+    n = y.shape[0]
+    nbord = M[0][C_NBORD]
+    z2, f0, f1, f2, base, res, err = w[W_Z2], w[W_F0], w[W_F1], w[W_F2], w[W_BASE], w[W_RES], w[W_ERR]
+    for i in range(n):
+        f2[i] = (z2[i] - base[i]) / gh
+    if hold:
+        for i in range(nbord):
+            f2[i] = 0.0
+    for i in range(n):
+        res[i] = h * (E0 * f0[i] + E1 * f1[i] + E2 * f2[i])
+    solve_b(M, ws, gh, fb, res, err)
+    return _wnorm(err, y, z2, scale, rtol, nbord)
 
 
 @njit(cache=True)
@@ -217,28 +265,19 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
               rtol, scale, t_out, want_energy, store_states, max_steps, xc, ws, ist, one_step, want_trace,
               max_rows, interrupt):
     """Integrate from seg_t[0] to seg_t[-1]. Records every accepted step, or the times
-    t_out if given (dense output, _dense_record). Returns (rec, states, stats, y_end,
-    trace); with want_trace, trace holds the stroke of every accepted step as rows
+    t_out if given (dense output, records.dense_outputs). Returns (rec, states, stats,
+    y_end, trace); with want_trace, trace holds the stroke of every accepted step as rows
     (t_end, x at the stage t + gamma h, x_end), after a first row (t0, x0, x0): the
     solver's own dense record of x(t), from which the metrics are computed whatever
     the output sampling.
 
-    Stops: the stroke lies in [0, x_e]. A step that ends past a stop is retried to end
-    there (the crossing located by linear interpolation, at most EV_TRIES times); on
-    the stop the motion is held (inelastic impact: the kinetic energy is booked) while
-    the net force pushes into it, and released when it no longer does (located the
-    same way).
+    Stops and force jumps (xc: strokes where the force jumps, the paper scheme's
+    midpoint crossings; empty otherwise) are events: stops.py. max_rows: the output
+    record's row limit when every step is recorded (status OUTPUT_FULL when reached;
+    t_out is checked by the caller).
 
-    max_rows: the output record's row limit when every step is recorded (status
-    OUTPUT_FULL when reached; t_out is checked by the caller).
-
-    xc: strokes where the force jumps (the paper scheme's midpoint crossings; empty
-    otherwise). There the stroke equation has a discontinuous right-hand side and the
-    equilibrium is a sliding point: the stroke sticks at a crossing while the force
-    pushes towards it from both sides and is released when it no longer does.
-
-    ws, ist: the persistent workspace and controller state (make_workspace), updated
-    in place. A breakpoint where neither input jumps keeps f and the Newton matrix.
+    ws, ist: the persistent workspace and controller state (make_workspace, trbdf2.I_*),
+    updated in place. A breakpoint where neither input jumps keeps f and the Newton matrix.
     one_step: return after the first accepted step, recording its start, stage and end
     (a stepping caller interpolates its communication points there, see
     dfa_model.numerics.stepper).
@@ -248,381 +287,79 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     INTERRUPTED and empty records (the run is abandoned). Never written here; the zero of a
     caller that does not interrupt costs a load per step."""
     n = y0.shape[0]
-    nb = cfg[C_NB]
     nbord = cfg[C_NBORD]
+    M = (cfg, geo, mat, law, lawp)
+    wk = (np.zeros(6), np.zeros(NWORK), ws[6], ws[7])
     y = y0.copy()
-    z1 = np.empty(n)
-    z2 = np.empty(n)
-    f0 = np.empty(n)
-    f1 = np.empty(n)
-    f2 = np.empty(n)
-    fz = np.empty(n)
-    res = np.empty(n)
-    dz = np.empty(n)
-    err = np.empty(n)
-    tmp = np.empty(n)
-    ytmp = np.empty(n)
-    yi = np.empty(n)
-    ydi = np.empty(n)
-    fbase = np.empty(n)
-    base = np.empty(n)
-    kin = np.zeros(6)
-    work = np.zeros(NWORK)
-    Jee, Jeb, Jbe, Jbb, Winv, zeta, tri, jbe, cp, dinv, S, fkeep = ws
-    E = np.zeros(NPOW)
-    Eold = np.zeros(NPOW)
-    P0 = np.zeros(NPOW)
-    P1 = np.zeros(NPOW)
-    P2 = np.zeros(NPOW)
+    # the step's vectors as a tuple of arrays (trbdf2.W_*): rows of one 2-D array made a
+    # view, with its reference count, at every use (7 % of a run)
+    w = (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+         np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n))
+    f0, z1, z2, f2 = w[W_F0], w[W_Z1], w[W_Z2], w[W_F2]
+    eg = np.zeros((G_ROWS, NPOW))
     row = np.zeros(NREC)
-    Eint = np.zeros(NPOW)
-    rec = np.zeros((min(1024, t_out.shape[0] + 2) if t_out.shape[0] > 0 else (8 if one_step else 1024), NREC))
+    cnt = np.zeros(N_COUNTERS, np.int64)
+    ev = np.empty(4)
+    ev[EV_T], ev[EV_WA], ev[EV_WB], ev[EV_PREV] = -math.inf, 1.0, 1.0, 0.0
+    grid = t_out.shape[0] > 0
+    rec = np.zeros((min(1024, t_out.shape[0] + 2) if grid else (8 if one_step else 1024), NREC))
     states = np.zeros((1024 if store_states else 1, n))
     trace = np.zeros((1024 if want_trace else 1, 3))
-    ntr = 0
-    nrec = 0
-    nfev = 0
-    njac = 0
-    nsteps = 0
-    nrej = 0
     status = OK
     done = False
-    grid = t_out.shape[0] > 0
-    kout = 0
-    nseg = seg_t.shape[0] - 1
-    jac_ok = ist[I_JOK] > 0.0
-    h_fact = ist[I_HFACT]
-    eta = ist[I_ETA]              # Newton contraction estimate theta/(1 - theta)
     fb = nbord - 1
-    stuck = int(ist[I_STUCK])     # index into xc while sliding
     sliding = xc.shape[0] > 0 and nbord == 1
     eps_x = 1e-9 * mat[XSC]
-    stop = int(ist[I_STOP])       # the stop the stroke rests on (held), or 0
-    x_e = mat[X_E]
     tol_x = rtol * scale[0]       # how far past a stop a step may end without a retry
-    g_hold = ist[I_GHOLD]         # net zipping force at y while held
-    ev_tries = 0
-    # a stop event being located: bracket [t (held/short side), ev_t (past the event)],
-    # regula falsi with the Illinois rule (an end kept twice in a row has its value halved)
-    ev_t = -math.inf
-    ev_wa = 1.0                   # weight of the near end's value
-    ev_wb = 1.0                   # weight of the far end's value
-    ev_prev = 0                   # last trial's outcome: 1 past the event, 2 short of it
     t = seg_t[0]
     if want_trace:
-        trace[0, 0] = t
-        trace[0, 1] = y[0]
-        trace[0, 2] = y[0]
-        ntr = 1
-    hn = ist[I_HN]
-    h = hn
-    # the step the controller proposed after the first step accepted past the last
-    # voltage jump: the next jump starts there rather than at the step the previous
-    # segment ended with. A jump starts a transient (a stroke dip at an inversion, an
-    # R_s C charging of a fraction of a millisecond) that the previous segment's last,
-    # long step overshot: shrinking to it took 3 rejected steps at every switch of a
-    # 30 Hz reset at rtol 1e-5, ~8 with a series resistance
-    h_jump = ist[I_HJUMP]
-    after_jump = ist[I_AFTERJ] > 0.0
-    t_end = seg_t[nseg]
-    hmin = 1e-14 * max(1.0, abs(t_end))
+        trace[0, 0], trace[0, 1], trace[0, 2] = t, y[0], y[0]
+        cnt[N_TR] = 1
+    nseg = seg_t.shape[0] - 1
+    hmin = 1e-14 * max(1.0, abs(seg_t[nseg]))
     for sidx in range(nseg):
         ta, tb = seg_t[sidx], seg_t[sidx + 1]
         V0, Vs, F0, Fs = seg_V0[sidx], seg_Vs[sidx], seg_F0[sidx], seg_Fs[sidx]
-        if sidx == 0:
-            Vleft = V_prev
-            Fleft = ist[I_F]      # only read once a call has written it (jac_ok or f0 valid)
-        else:
-            Vleft = seg_V0[sidx - 1] + seg_Vs[sidx - 1] * (ta - seg_t[sidx - 1])
-            Fleft = seg_F0[sidx - 1] + seg_Fs[sidx - 1] * (ta - seg_t[sidx - 1])
-        # no jump in either input: not an event for the solver state (a stepping caller
-        # passes the same input again); f and the Newton matrix carry on
-        smooth = V0 == Vleft and F0 == Fleft and Vs == 0.0 and Fs == 0.0 and ist[I_F0OK] > 0.0
-        # a voltage jump moves charge instantly (continuum scheme): book its energy
-        if want_energy and cfg[C_SCHEME] != 1 and cfg[C_RS] == 0 and V0 != Vleft:
-            rhs_any(cfg, geo, mat, law, lawp, Vleft, F0, y, f0, kin, work, tri, jbe)
-            diagnostics(cfg, geo, mat, law, lawp, Vleft, 0.0, F0, y, f0, kin, work, row, P0)
-            C = row[R_C]
-            dV = V0 - Vleft
-            E[0] += V0 * C * dV
-            E[3] += 0.5 * C * dV * dV
-        if smooth:
-            for i in range(n):
-                f0[i] = fkeep[i]
-        else:
-            rhs_any(cfg, geo, mat, law, lawp, V0, F0, y, f0, kin, work, tri, jbe)
-            nfev += 1
-            if V0 != Vleft:
-                if h_jump > 0.0:
-                    hn = min(hn, h_jump)
-                after_jump = True
-            if jac_ok and V0 == -Vleft and V0 != 0.0 and F0 == Fleft and cfg[C_RS] == 0:
-                # polarity inversion: the q-x couplings scale with A = eps_l V - T0 q and
-                # flip sign, the rest is unchanged for small q; a good Newton matrix for
-                # free (Newton's convergence test still guards the result)
-                for i in range(Jeb.shape[0]):
-                    for c in range(nb):
-                        Jeb[i, c] = -Jeb[i, c]
-                        if c == 0 or cfg[C_SCHEME] != NODAL_ID:   # the force's P-derivative ~ P: unchanged
-                            Jbe[i, c] = -Jbe[i, c]
-                h_fact = -1.0
-            else:
-                jac_ok = False
-            if stuck >= 0:
-                if _attracting(cfg, geo, mat, law, lawp, V0, F0, y, xc[stuck], eps_x, tmp, ytmp, kin, work, tri,
-                               jbe):
-                    f0[0] = 0.0
-                else:
-                    stuck = -1
-            # inputs jumped: on a stop, the stroke stays or leaves with the new force
-            touch = _touching(y, nbord, x_e)
-            new_stop = 0
-            if touch != 0:
-                g_hold = _push(cfg, geo, mat, law, lawp, V0, F0, y, tmp, kin, work, tri, jbe)[0]
-                nfev += 1
-                if _held(touch, g_hold):
-                    new_stop = touch
-            if new_stop != stop:
-                stop = new_stop
-                jac_ok = False
-                ev_tries = 0
-            if stop != 0:
-                for i in range(nbord):
-                    f0[i] = 0.0
-        if sidx == 0 and not one_step:
-            if (not grid) or (kout < t_out.shape[0] and t_out[kout] <= t):
-                rec = _grow(rec, nrec)
-                _record(cfg, geo, mat, law, lawp, t, V0, Vs, F0, y, f0, E, kin, work, rec[nrec], P0)
-                if store_states:
-                    states = _grow(states, nrec)
-                    states[nrec, :] = y
-                nrec += 1
-                if grid:
-                    kout += 1
+        _begin_segment(M, wk, ws, ist, cnt, w, y, sidx, seg_t, seg_V0, seg_Vs, seg_F0, seg_Fs, V_prev, want_energy, eg,
+                       row, xc, eps_x)
+        if sidx == 0 and not one_step and ((not grid) or t_out[0] <= t):
+            rec, states = _keep_row(M, wk, cnt, eg[G_P0], eg, t, V0, Vs, F0, y, f0, rec, states, store_states,
+                                        grid)
         if want_energy:
-            diagnostics(cfg, geo, mat, law, lawp, V0, Vs, F0, y, f0, kin, work, row, P0)
+            diagnostics_b(M, wk, V0, Vs, F0, y, f0, row, eg[G_P0])
         while t < tb and status == OK and not done:
-            # hn is the step the controller wants; h the one taken (clipped to land on tb)
-            h = hn
+            h = ist[I_HN]                 # the step the controller wants, clipped to land on tb
             if tb - t <= h * (1.0 + 1e-9) or tb - t < 2.0 * hmin:
                 h = tb - t
-            if nsteps + nrej >= max_steps:
-                status = MAX_STEPS
+            status = _may_step(cnt, max_steps, interrupt, max_rows, grid)
+            if status != OK:
                 break
-            if interrupt[0] != 0:
-                status = INTERRUPTED
-                break
-            if nrec >= max_rows and not grid:
-                status = OUTPUT_FULL
-                break
-            # the Jacobian is kept across steps while Newton converges fast; it is
-            # renewed at every breakpoint, on slow or failed convergence and when the
-            # stroke sticks or is released
-            jac_fresh = False
-            if not jac_ok:
-                jacobian(cfg, geo, mat, law, lawp, V0 + Vs * (t - ta), F0 + Fs * (t - ta), y, fbase,
-                         Jee, Jeb, Jbe, Jbb, tri, kin, work, tmp, ytmp, jbe)
-                if stuck >= 0 or stop != 0:    # the stroke is held: its rows decouple
-                    for a in range(Jbb.shape[0]):
-                        for b in range(Jbb.shape[1]):
-                            if a < nbord or b < nbord:   # (a series resistance's V_d keeps its own)
-                                Jbb[a, b] = 0.0
-                    Jbe[:, :] = 0.0
-                njac += 1
-                nfev += 2
-                jac_ok = True
-                jac_fresh = True
-                h_fact = -1.0
-                eta = 1.0
-            gh = DG * h
-            if h != h_fact:
-                factor(cfg, mat, gh, Jee, Jeb, Jbe, Jbb, tri, fb, Winv, zeta, cp, dinv, S)
-                h_fact = h
-            eta = max(eta, 1e-16) ** 0.8
-            # ---- stage 1 (trapezoidal rule to t + gamma h), then stage 2 (BDF2 to t + h)
-            tg = t + GAMMA * h
-            Vg = V0 + Vs * (tg - ta)
-            Fg = F0 + Fs * (tg - ta)
-            for i in range(n):
-                z1[i] = y[i] + GAMMA * h * f0[i]
-                base[i] = y[i] + gh * f0[i]
-            z1[0] = min(max(z1[0], 0.0), x_e)     # predictors start inside the stops
-            held = stuck >= 0 or stop != 0
-            conv, its, eta = _newton(cfg, geo, mat, law, lawp, Vg, Fg, z1, base, gh, held, fz, res, dz, y,
-                                     scale, rtol, Winv, zeta, Jbe, Jbb, tri, cp, dinv, S, fb, kin, work, jbe, eta)
-            nfev += its
-            slow = its > 2
-            ok = conv
-            if ok:
-                for i in range(n):
-                    f1[i] = (z1[i] - base[i]) / gh
-                t2 = t + h
-                V2 = V0 + Vs * (t2 - ta)
-                F2 = F0 + Fs * (t2 - ta)
-                for i in range(n):
-                    z2[i] = z1[i] + (1.0 - GAMMA) * h * f1[i]
-                    base[i] = y[i] + h * WTR * (f0[i] + f1[i])
-                z2[0] = min(max(z2[0], 0.0), x_e)
-                conv, its, eta = _newton(cfg, geo, mat, law, lawp, V2, F2, z2, base, gh, held, fz, res, dz, y,
-                                         scale, rtol, Winv, zeta, Jbe, Jbb, tri, cp, dinv, S, fb, kin, work, jbe, eta)
-                nfev += its
-                slow = slow or its > 2
-                ok = conv
+            fresh = _newton_matrix(M, wk, ws, ist, cnt, w, y, V0 + Vs * (t - ta), F0 + Fs * (t - ta), h, fb)
+            hold = ist[I_STUCK] >= 0 or ist[I_STOP] != 0
+            ok, slow = _stages(M, wk, ws, ist, cnt, w, y, t, h, ta, V0, Vs, F0, Fs, hold, scale, rtol, fb)
             if slow:
-                jac_ok = False
-            if not ok:
-                nrej += 1
-                if jac_fresh:
-                    hn = 0.25 * h
-                else:             # retry with a fresh Jacobian before shrinking the step
-                    hn = h
-                jac_ok = False
-                if hn < hmin:
-                    status = STEP_UNDERFLOW
+                ist[I_JOK] = 0.0
+            en = _error_norm(M, ws, w, y, h, hold, scale, rtol, fb) if ok else 0.0
+            if not (ok and en <= 1.0):    # rejected: retry smaller (or with a fresh Jacobian)
+                status = _reject(ist, cnt, h, ok, fresh, en, hmin)
                 continue
-            for i in range(n):
-                f2[i] = (z2[i] - base[i]) / gh
-            if held:
-                for i in range(nbord):
-                    f2[i] = 0.0
-            for i in range(n):
-                res[i] = h * (E0 * f0[i] + E1 * f1[i] + E2 * f2[i])
-            solve(cfg, mat, gh, Winv, zeta, Jbe, Jbb, tri, cp, dinv, S, fb, res, err)
-            en = _wnorm(err, y, z2, scale, rtol, nbord)
-            if not math.isfinite(en):
-                nrej += 1
-                hn = 0.25 * h
-                if hn < hmin:
-                    status = NONFINITE
+            tg, t2 = t + GAMMA * h, t + h
+            Vg, Fg, V2, F2 = V0 + Vs * (tg - ta), F0 + Fs * (tg - ta), V0 + Vs * (t2 - ta), F0 + Fs * (t2 - ta)
+            event, g2, th = stop_event(M, wk, ist, cnt, ev, w, y, t, h, V2, F2, rtol, tol_x)
+            if th > 0.0:                  # retried to end at the stop event
+                ist[I_HN] = h * th
                 continue
-            if en > 1.0:
-                nrej += 1
-                hn = h * max(0.2, 0.9 * en ** (-1.0 / 3.0))
-                if hn < hmin:
-                    status = STEP_UNDERFLOW
-                continue
-            # ---- stop events: a step ending past a stop, or a held stroke pulled away,
-            # is retried to end at the event (linear interpolation of the crossing)
-            # event functions: the net zipping force (release), the distance to the stop
-            # (impact); a retry when the step ends beyond the tolerance past the event
-            event = 0             # 1: impact on a stop, 2: release from it
-            g2 = 0.0
-            f_near = 0.0
-            f_far = 0.0
-            retry = False
-            if stop != 0:
-                g2, gscale = _push(cfg, geo, mat, law, lawp, V2, F2, z2, tmp, kin, work, tri, jbe)
-                nfev += 1
-                if not _held(stop, g2):
-                    event = 2
-                    f_near, f_far = g_hold, g2
-                    retry = abs(g2) > rtol * gscale
-            elif z2[0] < 0.0 or z2[0] > x_e:
-                event = 1
-                xb = 0.0 if z2[0] < 0.0 else x_e
-                f_near, f_far = y[0] - xb, z2[0] - xb
-                retry = abs(f_far) > tol_x
-            if retry and ev_tries < EV_TRIES and f_near != f_far:
-                th, ev_wa, ev_wb, ev_prev = _event_retry(t, h, f_near, f_far, ev_t, ev_wa, ev_wb, ev_prev)
-                ev_tries += 1
-                nrej += 1
-                ev_t = t + h
-                hn = h * th
-                continue
-            # ---- accepted
-            nsteps += 1
+            cnt[N_STEPS] += 1
             if sliding:
-                changed = False
-                if stuck >= 0:
-                    xk = xc[stuck]
-                    if _net(cfg, geo, mat, law, lawp, V2, F2, z2, xk - eps_x, tmp, ytmp, kin, work, tri, jbe) <= 0.0:
-                        z2[0] = xk - eps_x       # released: moves back (unzips)
-                        stuck = -1
-                        changed = True
-                    elif _net(cfg, geo, mat, law, lawp, V2, F2, z2, xk + eps_x, tmp, ytmp, kin, work, tri, jbe) >= 0.0:
-                        z2[0] = xk + eps_x       # released: moves on (zips)
-                        stuck = -1
-                        changed = True
-                elif z2[0] != y[0]:
-                    # the first attracting jump passed in the direction of motion
-                    up = z2[0] > y[0]
-                    lo, hi = (y[0], z2[0]) if up else (z2[0], y[0])
-                    ia = np.searchsorted(xc, lo)
-                    ib = np.searchsorted(xc, hi)
-                    k = ia if up else ib - 1
-                    while ia <= k < ib:
-                        if _attracting(cfg, geo, mat, law, lawp, V2, F2, z2, xc[k], eps_x, tmp, ytmp, kin, work, tri,
-                                       jbe):
-                            z2[0] = xc[k]
-                            stuck = k
-                            changed = True
-                            break
-                        k += 1 if up else -1
-                if changed:
-                    jac_ok = False
-                    rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
-                    nfev += 1
-                    if stuck >= 0:
-                        f2[0] = 0.0
-            if event != 0:
-                ev_tries = 0
-                ev_t = -math.inf
-                ev_wa, ev_wb, ev_prev = 1.0, 1.0, 0
-            elif ev_t > t + h:    # a trial fell short of the event: the near end moves
-                ev_wb = ev_wb * 0.5 if ev_prev == 2 else ev_wb
-                ev_wa, ev_prev = 1.0, 2
-            if event == 2:        # released: free motion from rest on the stop
-                stop = 0
-                jac_ok = False
-                rhs_any(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)
-                nfev += 1
-            elif event == 1:      # impact (inelastic): on the stop, held if pushed into it
-                side = -1 if z2[0] < 0.0 else 1
-                z2[0] = 0.0 if side < 0 else x_e
-                if nbord == 2 and z2[1] * side > 0.0:
-                    if want_energy:
-                        E[E_IMPACT] += 0.5 * mat[MASS] * z2[1] * z2[1]
-                    z2[1] = 0.0
-                g2 = _push(cfg, geo, mat, law, lawp, V2, F2, z2, f2, kin, work, tri, jbe)[0]
-                nfev += 1
-                stop = side if _held(side, g2) else 0
-                if stop != 0:
-                    for i in range(nbord):
-                        f2[i] = 0.0
-                jac_ok = False
-            g_hold = g2
+                sliding_point(M, wk, ist, cnt, w, y, xc, eps_x, V2, F2)
+            settle_event(M, wk, ist, cnt, ev, w, event, g2, t, h, V2, F2, want_energy, eg)
             if want_energy:
-                Eold[:] = E
-                diagnostics(cfg, geo, mat, law, lawp, Vg, Vs, Fg, z1, f1, kin, work, row, P1)
-                diagnostics(cfg, geo, mat, law, lawp, V2, Vs, F2, z2, f2, kin, work, row, P2)
-                for i in range(NPOW):
-                    E[i] += h * (WTR * (P0[i] + P1[i]) + DG * P2[i])
-                P0[:] = P2
+                energy_step(M, wk, w, eg, row, h, Vg, Fg, V2, F2, Vs)
             if one_step:
-                # the step's three nodes (start, stage, end): the caller interpolates them
-                rec = _grow(rec, nrec + 2)
-                _record(cfg, geo, mat, law, lawp, t, V0 + Vs * (t - ta), Vs, F0 + Fs * (t - ta), y, f0, E, kin, work,
-                        rec[nrec], P1)
-                _record(cfg, geo, mat, law, lawp, tg, Vg, Vs, Fg, z1, f1, E, kin, work, rec[nrec + 1], P1)
-                _record(cfg, geo, mat, law, lawp, t + h, V2, Vs, F2, z2, f2, E, kin, work, rec[nrec + 2], P1)
-                nrec += 3
+                rec = step_nodes(M, wk, w, eg, y, t, h, ta, V0, Vs, F0, Fs, Vg, Fg, V2, F2, rec, cnt)
             if grid:
-                while kout < t_out.shape[0] and t_out[kout] <= t + h * (1.0 + 1e-12):
-                    if interrupt[0] != 0:      # one step can hold many outputs (a long DC hold)
-                        status = INTERRUPTED
-                        break
-                    to = t_out[kout]
-                    s = min(1.0, max(0.0, (to - t) / h))
-                    for i in range(NPOW):
-                        Eint[i] = Eold[i] + s * (E[i] - Eold[i]) if want_energy else 0.0
-                    rec = _grow(rec, nrec)
-                    _dense_record(cfg, geo, mat, law, lawp, s, h, to, y, z1, z2, V0 + Vs * (to - ta), Vs,
-                                  F0 + Fs * (to - ta), Eint, yi, ydi, kin, work, rec[nrec], P1)
-                    if store_states:
-                        states = _grow(states, nrec)
-                        states[nrec, :] = yi
-                    nrec += 1
-                    kout += 1
+                rec, states, status = dense_outputs(M, wk, w, eg, y, t, h, ta, V0, Vs, F0, Fs, t_out, want_energy,
+                                                    store_states, rec, states, cnt, interrupt)
             t = t + h
             if tb - t < 2.0 * hmin:
                 t = tb
@@ -630,48 +367,86 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
                 y[i] = z2[i]
                 f0[i] = f2[i]
             if want_trace:
-                trace = _grow(trace, ntr)
-                trace[ntr, 0] = t
-                trace[ntr, 1] = min(max(z1[0], 0.0), x_e)
-                trace[ntr, 2] = y[0]
-                ntr += 1
+                trace = grow(trace, cnt[N_TR])
+                trace[cnt[N_TR], 0], trace[cnt[N_TR], 1], trace[cnt[N_TR], 2] = t, min(max(z1[0], 0.0), mat[X_E]), y[0]
+                cnt[N_TR] += 1
             if not grid and not one_step:
-                rec = _grow(rec, nrec)
-                _record(cfg, geo, mat, law, lawp, t, V2, Vs, F2, y, f0, E, kin, work, rec[nrec], P1)
-                if store_states:
-                    states = _grow(states, nrec)
-                    states[nrec, :] = y
-                nrec += 1
-            fac = min(5.0, max(0.2, 0.9 * en ** (-1.0 / 3.0) if en > 0 else 5.0))
-            hn = h * fac if h >= hn else max(hn, h * fac)
-            if after_jump:
-                h_jump = hn
-                after_jump = False
-            if ev_t > t:          # a located stop event still ahead: stay inside its bracket
-                hn = min(hn, ev_t - t)
-            if one_step:
-                done = True
+                rec, states = _keep_row(M, wk, cnt, eg[G_P1], eg, t, V2, Vs, F2, y, f0, rec, states, store_states,
+                                        grid)
+            _next_step(ist, ev, h, t, en)
+            done = one_step
         if status != OK:
             break
         # what the next call continues from (f0 belongs to V, F at the segment end)
-        for i in range(n):
-            fkeep[i] = f0[i]
+        ws[11][:] = f0
         ist[I_F] = F0 + Fs * (t - ta)
         ist[I_F0OK] = 1.0 if Vs == 0.0 and Fs == 0.0 else 0.0
         if done:
             break
-    ist[I_JOK] = 1.0 if jac_ok else 0.0
-    ist[I_HFACT] = h_fact
-    ist[I_ETA] = eta
-    ist[I_HN] = hn
-    ist[I_STUCK] = stuck
-    ist[I_STOP] = stop
-    ist[I_GHOLD] = g_hold
-    ist[I_HJUMP] = h_jump
-    ist[I_AFTERJ] = 1.0 if after_jump else 0.0
-    if status == INTERRUPTED:     # abandoned: no copies of what was recorded (a long run's are large)
-        nrec = 0
-        ntr = 0
-    stats = np.array([nsteps, nrej, nfev, njac, status, t], dtype=np.float64)
+    nrec, ntr = (0, 0) if status == INTERRUPTED else (cnt[N_REC], cnt[N_TR])   # abandoned: no copies
+    stats = np.array([cnt[N_STEPS], cnt[N_REJ], cnt[N_FEV], cnt[N_JAC], status, t], dtype=np.float64)
     return (rec[:nrec].copy(), states[:nrec].copy() if store_states else states[:0].copy(), stats, y,
             trace[:ntr].copy())
+
+
+@njit(cache=True, inline="always")
+def _keep_row(M, wk, cnt, P, eg, t, V, Vs, F, y, f, rec, states, store_states, grid):
+    """Record the state y at t (the first row, or an accepted step's end; P receives
+    the powers)."""
+    nrec = cnt[N_REC]
+    rec = grow(rec, nrec)
+    record(M, wk, t, V, Vs, F, y, f, eg[G_E], rec[nrec], P)
+    if store_states:
+        states = grow(states, nrec)
+        states[nrec, :] = y
+    cnt[N_REC] = nrec + 1
+    if grid:
+        cnt[N_OUT] += 1
+    return rec, states
+
+
+@njit(cache=True, inline="always")
+def _may_step(cnt, max_steps, interrupt, max_rows, grid):
+    """OK, or why no further step may be taken."""
+    if cnt[N_STEPS] + cnt[N_REJ] >= max_steps:
+        return MAX_STEPS
+    if interrupt[0] != 0:
+        return INTERRUPTED
+    if cnt[N_REC] >= max_rows and not grid:
+        return OUTPUT_FULL
+    return OK
+
+
+@njit(cache=True, inline="always")
+def _reject(ist, cnt, h, converged, fresh, en, hmin):
+    """A rejected step: Newton failed (retry with a fresh Jacobian before shrinking the
+    step), the error was not finite, or too large. Returns the status (OK: retry)."""
+    cnt[N_REJ] += 1
+    if not converged:
+        ist[I_HN] = 0.25 * h if fresh else h
+        ist[I_JOK] = 0.0
+        return STEP_UNDERFLOW if ist[I_HN] < hmin else OK
+    if not math.isfinite(en):
+        ist[I_HN] = 0.25 * h
+        return NONFINITE if ist[I_HN] < hmin else OK
+    ist[I_HN] = h * shrink_factor(en, 0.2)
+    return STEP_UNDERFLOW if ist[I_HN] < hmin else OK
+
+
+@njit(cache=True, inline="always")
+def _next_step(ist, ev, h, t, en):
+    """The step size after an accepted step h ending at t. After a voltage jump, the first
+    step proposed is kept for the next jump: a jump starts a transient (a stroke dip at
+    an inversion, an R_s C charging of a fraction of a millisecond) that the previous
+    segment's last, long step overshot (shrinking to it took 3 rejected steps at every
+    switch of a 30 Hz reset at rtol 1e-5, ~8 with a series resistance). A located stop
+    event still ahead: the step stays inside its bracket."""
+    hn = ist[I_HN]
+    fac = grow_factor(en)
+    hn = h * fac if h >= hn else max(hn, h * fac)
+    if ist[I_AFTERJ] > 0.0:
+        ist[I_HJUMP] = hn
+        ist[I_AFTERJ] = 0.0
+    if ev[EV_T] > t:
+        hn = min(hn, ev[EV_T] - t)
+    ist[I_HN] = hn

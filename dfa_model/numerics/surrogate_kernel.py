@@ -77,9 +77,12 @@ FREE, HELD, AUTO = 0, 1, 2
 # from the mirrored state it was taken at, and the most half periods in a row
 JAC_TOL = 0.02
 JAC_USES = 50
+# the kept Jacobian's record in integrate (js): taken at this step (not for reuse), times
+# reused in a row, number of active core columns, the input voltage it was taken at
+J_FRESH, J_USES, J_M, J_V = range(4)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def table_row(tab, xe, x, rw):
     """The maps at stroke x (clamped to [0, x_e]): cubic Hermite with centred slopes, so
     that the force and the renewal (the front's lever and the layer's width) have
@@ -109,7 +112,7 @@ def table_row(tab, xe, x, rw):
         rw[c] = tab[i, c] * (1.0 - f) + tab[i + 1, c] * f
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _point(par, law, lawp, Vd, W, q, P, iu, t0p, out):
     """A material point's rates: out = [dq/dt, dP/dt, d(dq)/dq, d(dq)/dP, d(dP)/dq, d(dP)/dP]."""
     eps_l, itf = par[P_EPSL], 1.0 / par[P_TAUF]
@@ -149,7 +152,7 @@ def _point(par, law, lawp, Vd, W, q, P, iu, t0p, out):
         out[5] = 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _zipped_mean(y, rw, par, n):
     """The mean charge of the zipped material points (the layer's without any)."""
     h = par[P_LE] / (n - 1) if n > 1 else 0.0
@@ -162,7 +165,7 @@ def _zipped_mean(y, rw, par, n):
     return qz / nz if nz > 0 else y[QF]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _points(y, W, par, law, lawp, ydot, rw, pt, jn, n, NY):
     """The material points' rates into ydot (their 2 x 2 blocks into jn when jn has rows)
     at the maps' row rw; returns the zipped points' mean charge (the conduction current)."""
@@ -192,7 +195,7 @@ def _points(y, W, par, law, lawp, ydot, rw, pt, jn, n, NY):
     return _zipped_mean(y, rw, par, n)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _polarization_force(y, rw, n):
     """The branch's force over the unzipped length (frozen.polarization_weights): the
     ahead wake's band and P u linear between the material points."""
@@ -206,7 +209,7 @@ def _polarization_force(y, rw, n):
     return Fp
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _polarization_slopes(y, rw, n, rate, cp):
     """d(force)/dP_i, times `rate` (the stroke's or velocity's answer to the force), into cp."""
     d0, o0 = NFIX + n, NFIX + 2 * n
@@ -219,7 +222,7 @@ def _polarization_slopes(y, rw, n, rate, cp):
         cp[i] = rate * v
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     """The core's rates (stroke, velocity, V_d, layer) into ydot at the maps' row rw, the
     zipped points' mean charge qz. Returns (force, source current, and the couplings of
@@ -310,7 +313,7 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     return Fe, I, ka, ra, kb, rb
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, jn, side=0.0):
     """dy/dt at y (the inputs' rows: 0, their slopes are set by the caller); W: the mean
     square drive in averaged mode, else ignored; vdot: the input voltage's slope (the
@@ -340,7 +343,7 @@ def on_stop(y, W, tab, par, law, lawp, ydot, rw, pt):
     return FREE
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _lu(M, piv, n):
     """LU factorization with partial pivoting of the n x n M, in place."""
     for k in range(n):
@@ -361,7 +364,7 @@ def _lu(M, piv, n):
                     M[i, j] -= f * M[k, j]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _lu_solve(M, piv, b, n):
     """Solve with _lu's factors: every row interchange first (_lu swaps whole rows, the
     multipliers of earlier columns included, so the interchanges must all be applied
@@ -380,13 +383,13 @@ def _lu_solve(M, piv, b, n):
         b[i] = s / (M[i, i] if M[i, i] != 0.0 else 1e-300)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _state(c, NY):
     """The state index of core slot c (0..NCORE-1): the core states, then the inputs."""
     return c if c < NODE0 else NY - NCORE + c
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _couple(g, Jb, Bi, k, rate, row, Mc, pos, m):
     """Eliminate point k's block from the wake's rows row, row + 1 (when they are core
     slots) that see it at `rate`: subtract (-g rate) Bi_k (-g Jb_k) from them."""
@@ -402,7 +405,7 @@ def _couple(g, Jb, Bi, k, rate, row, Mc, pos, m):
             Mc[ri, c] -= -g * rate * (Bi[k, 2 * r] * bq + Bi[k, 2 * r + 1] * bp)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf):
     """Factor I - g J: the points' 2 x 2 blocks (inverted into Bi), then the Schur
     complement of the m active core slots (the wakes' rows see their source points
@@ -430,7 +433,7 @@ def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf):
     _lu(Mc, piv, m)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _uncouple(g, Bi, k, rate, row, b, n, rc, pos):
     if k < 0 or rate == 0.0:
         return
@@ -441,7 +444,7 @@ def _uncouple(g, Bi, k, rate, row, b, n, rc, pos):
             rc[ri] -= -g * rate * (Bi[k, 2 * r] * bq + Bi[k, 2 * r + 1] * bp)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf):
     """Solve (I - g J) z = b in place, with the factors of _factor (an inactive core
     state's row is the identity: its entry stays)."""
@@ -465,7 +468,7 @@ def _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf)
         b[NODE0 + n + i] = Bi[i, 2] * bq + Bi[i, 3] * bp
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, sc, xe, n, NY, m, cl, Jc, Jb, k1, yt, Jb0):
     """The Jacobian's core columns at y (ft = f(y), rw0 its maps' row): forward
     differences in the m active core slots cl, into Jc (core rows) and Jb (the points'
@@ -506,7 +509,7 @@ def _jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, sc, xe
                 Jb[i, 1, ci] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _mirror(Jc, Jb, cl, m, n):
     """The Jacobian at the mirrored state (V -> -V): M J M, M negating every state but
     the stroke and its velocity (and the force input)."""
@@ -520,44 +523,9 @@ def _mirror(Jc, Jb, cl, m, n):
             Jb[i, 1, ci] *= -sc_
 
 
-@njit(cache=True)
-def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps):
-    """Integrate over the input segments [tb[k], tb[k+1]] (voltage v0[k] + vs[k] (t - tb[k]),
-    force likewise; w2[k] the mean square voltage in averaged mode). Writes one record
-    row per accepted step (and the start) into rec. Returns (status, rows, steps, y)."""
-    n = int(par[P_N])
-    NY = NODE0 + 2 * n + 2
-    nb = max(n, 1)
-    y = y0.copy()
-    F0 = np.empty(NY)
-    F1 = np.empty(NY)
-    F2 = np.empty(NY)
-    k1 = np.empty(NY)
-    k2 = np.empty(NY)
-    k3 = np.empty(NY)
-    yt = np.empty(NY)
-    ft = np.empty(NY)
-    rw = np.empty(tab.shape[1])
-    rw0 = np.empty(tab.shape[1])
-    pt = np.empty(6)
-    Jb0 = np.empty((0, 4))             # "do not store the points' blocks"
-    Jc = np.zeros((NCORE, NCORE))      # the active core slots' rows x columns (compressed)
-    Jb = np.zeros((nb, 2, NCORE))      # the points' rows x the active core columns
-    Jn = np.zeros((nb, 4))             # the points' own 2 x 2 blocks at the step's start
-    Jn2 = np.zeros((nb, 4))            # ... at its end (reused by the next step)
-    Mc = np.empty((NCORE, NCORE))
-    Bi = np.empty((nb, 4))
-    piv = np.empty(NCORE, dtype=np.int64)
-    rc = np.empty(NCORE)
-    cl = np.empty(NCORE, dtype=np.int64)   # the active core slots
-    pos = np.empty(NCORE, dtype=np.int64)  # slot -> its place among them (-1: inactive)
-    cp = np.zeros(nb)                      # the mechanics' row's answer to each point's P
-    pol_force = par[P_CHI] > 0.0 and n >= 2
-    nrec = rec.shape[0]
-    xe = par[P_XE]
-    d = 1.0 / (2.0 + math.sqrt(2.0))
-    e32 = 6.0 + math.sqrt(2.0)
-    # the states this actuator has (the others stay 0: no error, no Jacobian column)
+@njit(cache=True, inline="always")
+def _active_states(par, n, NY):
+    """The states this actuator has (the others stay 0: no error, no Jacobian column)."""
     active = np.zeros(NY, dtype=np.bool_)
     active[X] = True
     active[VEL] = par[P_M] > 0.0
@@ -572,21 +540,206 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
     for i in range(n):
         active[NODE0 + i] = True
         active[NODE0 + n + i] = par[P_CHI] > 0.0
-    # Jacobian reuse across a polarity inversion: odd physics gives J(My, -V) = M J(y, V) M
-    # (M negating the charges), and a half period later the state is near the mirror of
-    # the one the Jacobian was taken at. Kept (mirrored) while within JAC_TOL of it; the
-    # pair is a W-method (order 2 with any Jacobian); retaken after a rejection. Within a
-    # stage it is always retaken: there a kept Jacobian let the steps grow past what the
-    # order-3 error estimate, which assumes the exact one, can see (5-7 % of range lost on
-    # a DC staircase and a 0.3 Hz inversion at JAC_TOL = 0.02).
-    yJ = np.zeros(NY)
-    VJ = 0.0
-    mJ = -1
-    clJ = np.empty(NCORE, dtype=np.int64)
-    uses = 0
-    fresh = True
+    return active
+
+
+@njit(cache=True, _nrt=False)
+def _columns(active, vs_k, fs_k, pos, cl):
+    """The active core slots of a segment (the inputs' slots while they ramp): cl lists
+    them, pos maps a slot to its place among them (-1: inactive). Returns their number."""
+    m = 0
+    for c in range(NCORE):
+        on = active[c] if c < NODE0 else (vs_k != 0.0 if c == NCORE - 2 else fs_k != 0.0)
+        pos[c] = m if on else -1
+        if on:
+            cl[m] = c
+            m += 1
+    return m
+
+
+@njit(cache=True, _nrt=False)
+def _kept_jacobian(y, yJ, js, clJ, cl, m, active, sc, NY, mode, ramps):
+    """Jacobian reuse across a polarity inversion: odd physics gives J(My, -V) = M J(y, V) M
+    (M negating the charges), and a half period later the state is near the mirror of
+    the one the Jacobian was taken at. Kept (mirrored) while within JAC_TOL of it, at
+    most JAC_USES times; the pair is a W-method (order 2 with any Jacobian); retaken
+    after a rejection. Within a stage it is always retaken: there a kept Jacobian let
+    the steps grow past what the order-3 error estimate, which assumes the exact one,
+    can see (5-7 % of range lost on a DC staircase and a 0.3 Hz inversion at JAC_TOL =
+    0.02). js = [fresh, uses, m, V] of the kept one. Returns whether to mirror it."""
+    if js[J_FRESH] != 0.0 or mode != FREE or ramps or m != js[J_M] or js[J_USES] >= JAC_USES:
+        return False
+    V = y[NY - 2]
+    if not (V == -js[J_V] and V != 0.0):
+        return False
+    for ci in range(m):
+        if cl[ci] != clJ[ci]:
+            return False
+    dev = 0.0
+    for i in range(NY - 2):
+        if active[i]:
+            ref = yJ[i] if (i == X or i == VEL) else -yJ[i]
+            dev = max(dev, abs(y[i] - ref) / (abs(y[i]) + sc[i]))
+    return dev <= JAC_TOL
+
+
+@njit(cache=True, _nrt=False)
+def _hold_jacobian(Jc, Jb, pos, m, n):
+    """On a stop (HELD): the stroke's and velocity's rows and columns decouple."""
+    for ci in range(m):
+        for c in (X, VEL):
+            if pos[c] >= 0:
+                Jc[pos[c], ci] = 0.0
+                Jc[ci, pos[c]] = 0.0
+    for i in range(n):
+        Jb[i, 0, pos[X]] = 0.0
+        Jb[i, 1, pos[X]] = 0.0
+
+
+@njit(cache=True, _nrt=False)
+def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb, ka, ra, kb, rb,
+            Jb0, n, Mc, piv, Bi, NY, rc, cl, pos, m, cp, rf, Jn2, vs_k, fs_k, active, rtol, sc):
+    """One Rosenbrock-W step of size hs from y (F0 = f(y); the matrix I - g J factored):
+    the three stages of ode23s and the scaled error of the embedded pair. yt receives the
+    new state, F2 f there. Returns (error, and rhs's results at yt: force, current and the
+    wakes' couplings)."""
+    d_e32 = 6.0 + math.sqrt(2.0)
+    for i in range(NY):
+        k1[i] = F0[i]
+    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, rf)
+    for i in range(NY):
+        yt[i] = y[i] + 0.5 * hs * k1[i]
+    rhs(yt, W, vd, tab, par, law, lawp, F1, rw, pt, mode, Jb0, side)
+    F1[NY - 2] = vs_k
+    F1[NY - 1] = fs_k
+    for i in range(NY):
+        k2[i] = F1[i] - k1[i]
+    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, rf)
+    for i in range(NY):
+        k2[i] += k1[i]
+        yt[i] = y[i] + hs * k2[i]
+    Fe2, I2, ka2, ra2, kb2, rb2 = rhs(yt, W, vd, tab, par, law, lawp, F2, rw, pt, mode, Jn2, side)
+    F2[NY - 2] = vs_k
+    F2[NY - 1] = fs_k
+    for i in range(NY):
+        k3[i] = F2[i] - d_e32 * (k2[i] - F1[i]) - 2.0 * (k1[i] - F0[i])
+    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, rf)
+    err = 0.0
+    for i in range(NY - 2):
+        if active[i]:
+            e = hs / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i]) / (rtol * (abs(y[i]) + sc[i]))
+            err = max(err, abs(e))
+    return err, Fe2, I2, ka2, ra2, kb2, rb2
+
+
+@njit(cache=True, inline="always")
+def _to_stop(y0, y1, xe, hs, tries):
+    """A step from stroke y0 that ends at y1 past a stop is shortened to end on it (an
+    event; at most 6 tries, then within 1e-9 x_e past it counts as on it). Returns the
+    shortened step, or 0 to accept this one."""
+    over = 0.0
+    if y1 < 0.0 < y0:
+        over = y0 / (y0 - y1)
+    elif y1 > xe > y0:
+        over = (xe - y0) / (y1 - y0)
+    if over == 0.0 or tries >= 6 or (y1 < 0.0 and y1 > -1e-9 * xe) or (y1 > xe and y1 < xe * (1.0 + 1e-9)):
+        return 0.0
+    return hs * (min(max(over, 1e-3), 0.999) * 1.0001 if tries < 3 else 1.0001 * over)
+
+
+@njit(cache=True, _nrt=False)
+def _clip(y, xe):
+    """The accepted state on the stops: the stroke within [0, x_e], a velocity into a stop
+    zeroed. Returns whether it was clipped."""
+    if y[X] < 0.0:
+        y[X] = 0.0
+        if y[VEL] < 0.0:
+            y[VEL] = 0.0
+        return True
+    if y[X] > xe:
+        y[X] = xe
+        if y[VEL] > 0.0:
+            y[VEL] = 0.0
+        return True
+    return False
+
+
+@njit(cache=True, _nrt=False)
+def _step_jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, sc, xe, n, NY, m, cl, Jc, Jb, k1, yt,
+                   Jb0, yJ, js, clJ, pos, active, f_ramps):
+    """The Jacobian of a step: the kept one mirrored (_kept_jacobian) or a new one
+    (_jacobian), edited on a stop (_hold_jacobian). Returns whether it was kept."""
+    reuse = _kept_jacobian(y, yJ, js, clJ, cl, m, active, sc, NY, mode, vd != 0.0 or f_ramps)
+    js[J_FRESH] = 0.0
+    if reuse:
+        js[J_USES] += 1.0
+        _mirror(Jc, Jb, cl, m, n)
+        for i in range(NY - 2):
+            if not (i == X or i == VEL):
+                yJ[i] = -yJ[i]
+        js[J_V] = -js[J_V]
+    else:
+        js[J_USES], js[J_M], js[J_V] = 0.0, m, y[NY - 2]
+        for ci in range(m):
+            clJ[ci] = cl[ci]
+        for i in range(NY):
+            yJ[i] = y[i]
+        _jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, sc, xe, n, NY, m, cl, Jc, Jb, k1, yt,
+                  Jb0)
+    if mode == HELD:
+        js[J_FRESH] = 1.0    # the held Jacobian is edited: not for a free step
+        _hold_jacobian(Jc, Jb, pos, m, n)
+    return reuse
+
+
+@njit(cache=True, _nrt=False)
+def _carry(ft, F2, Jn, Jn2, rw0, rw, n, NY):
+    """First same as last: the accepted step's last stage (f, the points' blocks, the
+    maps' row) is the next step's start."""
+    for i in range(NY - 2):
+        ft[i] = F2[i]
+    for i in range(n):
+        for c in range(4):
+            Jn[i, c] = Jn2[i, c]
+    for c in range(rw.shape[0]):
+        rw0[c] = rw[c]
+
+
+@njit(cache=True)
+def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps):
+    """Integrate over the input segments [tb[k], tb[k+1]] (voltage v0[k] + vs[k] (t - tb[k]),
+    force likewise; w2[k] the mean square voltage in averaged mode). Writes one record
+    row per accepted step (and the start) into rec. Returns (status, rows, steps, y).
+
+    Per step: the Jacobian kept across an inversion (_kept_jacobian) or renewed
+    (_jacobian), edited on a stop (_hold_jacobian), factored (_factor); the three stages
+    and the error (_stages); a step past a stop shortened onto it (_to_stop); the state
+    clipped to the stops (_clip) and recorded."""
+    n = int(par[P_N])
+    NY = NODE0 + 2 * n + 2
+    nb = max(n, 1)
+    y = y0.copy()
+    F0, F1, F2, k1, k2, k3, yt, ft = (np.empty(NY), np.empty(NY), np.empty(NY), np.empty(NY), np.empty(NY),
+                                      np.empty(NY), np.empty(NY), np.empty(NY))
+    rw, rw0, pt = np.empty(tab.shape[1]), np.empty(tab.shape[1]), np.empty(6)
+    Jb0 = np.empty((0, 4))             # "do not store the points' blocks"
+    Jc = np.zeros((NCORE, NCORE))      # the active core slots' rows x columns (compressed)
+    Jb = np.zeros((nb, 2, NCORE))      # the points' rows x the active core columns
+    Jn = np.zeros((nb, 4))             # the points' own 2 x 2 blocks at the step's start
+    Jn2 = np.zeros((nb, 4))            # ... at its end (reused by the next step)
+    Mc, Bi, piv, rc = np.empty((NCORE, NCORE)), np.empty((nb, 4)), np.empty(NCORE, dtype=np.int64), np.empty(NCORE)
+    cl = np.empty(NCORE, dtype=np.int64)   # the active core slots
+    pos = np.empty(NCORE, dtype=np.int64)  # slot -> its place among them (-1: inactive)
+    cp = np.zeros(nb)                      # the mechanics' row's answer to each point's P
+    pol_force = par[P_CHI] > 0.0 and n >= 2
+    nrec = rec.shape[0]
+    xe = par[P_XE]
+    d = 1.0 / (2.0 + math.sqrt(2.0))
+    active = _active_states(par, n, NY)
+    yJ, clJ = np.zeros(NY), np.empty(NCORE, dtype=np.int64)
+    js = np.array([1.0, 0.0, -1.0, 0.0])   # the kept Jacobian: [fresh, uses, m, V]
     steps = 0
-    mode = FREE
+    mode = np.int64(FREE)   # typed as on_stop returns it (a literal 0 failed to unify in some builds)
     side = 0.0          # the renewal takes the side the front moves to (rhs's side argument: 0)
     h = h0
     y[NY - 2] = v0[0]
@@ -595,21 +748,11 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
     _record(rec, 0, tb[0], y, I, Fe, NY)
     row = 1
     for seg in range(len(v0)):
-        t = tb[seg]
-        t_end = tb[seg + 1]
-        y[NY - 2] = v0[seg]
-        y[NY - 1] = f0[seg]
-        W = w2[seg]
-        vd = vs[seg]
-        m = 0
-        for c in range(NCORE):
-            on = active[c] if c < NODE0 else (vs[seg] != 0.0 if c == NCORE - 2 else fs[seg] != 0.0)
-            pos[c] = m if on else -1
-            if on:
-                cl[m] = c
-                m += 1
-        F0[NY - 2] = vs[seg]
-        F0[NY - 1] = fs[seg]
+        t, t_end = tb[seg], tb[seg + 1]
+        y[NY - 2], y[NY - 1] = v0[seg], f0[seg]
+        W, vd = w2[seg], vs[seg]
+        m = _columns(active, vs[seg], fs[seg], pos, cl)
+        F0[NY - 2], F0[NY - 1] = vs[seg], fs[seg]
         have = False        # ft, Jn, rw0 and the couplings hold f at y (free): the last stage's
         while t < t_end - 1e-13 * max(abs(t_end), 1.0):
             if steps >= max_steps:
@@ -626,60 +769,11 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
                     rw0[c] = rw[c]
             for i in range(NY - 2):
                 F0[i] = ft[i]
-            # the Jacobian: forward differences in the active core columns, the points'
-            # blocks in closed form (their own rates), the wakes' coupling to their source
-            # points. Only the stroke's column moves the maps and only the stroke's, the
-            # input voltage's and V_d's move the points: the others difference the core
-            # alone, at the same maps' row
-            reuse = False
-            sgn = 1.0
-            if not fresh and mode == FREE and vd == 0.0 and fs[seg] == 0.0 and m == mJ and uses < JAC_USES:
-                V = y[NY - 2]
-                # only across a polarity inversion: within a stage a kept Jacobian lets the
-                # step size grow past what the order-3 error estimate (exact J) can see
-                sgn = -1.0 if (V == -VJ and V != 0.0) else 0.0
-                same = sgn != 0.0
-                for ci in range(m):
-                    if cl[ci] != clJ[ci]:
-                        same = False
-                if same:
-                    dev = 0.0
-                    for i in range(NY - 2):
-                        if active[i]:
-                            ref = yJ[i] if (i == X or i == VEL) else sgn * yJ[i]
-                            dev = max(dev, abs(y[i] - ref) / (abs(y[i]) + sc[i]))
-                    reuse = dev <= JAC_TOL
-            fresh = False
-            if reuse:
-                uses += 1
-                if sgn < 0.0:
-                    _mirror(Jc, Jb, cl, m, n)
-                    for i in range(NY - 2):
-                        if not (i == X or i == VEL):
-                            yJ[i] = -yJ[i]
-                    VJ = -VJ
-            else:
-                uses = 0
-                mJ = m
-                VJ = y[NY - 2]
-                for ci in range(m):
-                    clJ[ci] = cl[ci]
-                for i in range(NY):
-                    yJ[i] = y[i]
-                _jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, sc, xe, n, NY, m, cl,
-                          Jc, Jb, k1, yt, Jb0)
+            reuse = _step_jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, sc, xe, n, NY, m, cl,
+                                   Jc, Jb, k1, yt, Jb0, yJ, js, clJ, pos, active, fs[seg] != 0.0)
             if mode == HELD:
-                fresh = True     # the held Jacobian below is edited: not for a free step
                 F0[X] = 0.0
                 F0[VEL] = 0.0
-                for ci in range(m):
-                    for c in (X, VEL):
-                        if pos[c] >= 0:
-                            Jc[pos[c], ci] = 0.0
-                            Jc[ci, pos[c]] = 0.0
-                for i in range(n):
-                    Jb[i, 0, pos[X]] = 0.0
-                    Jb[i, 1, pos[X]] = 0.0
             # the polarization's force couples the mechanics' row to every point's P
             rf = -1
             if pol_force and mode == FREE:
@@ -691,45 +785,19 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
                 steps += 1
                 g = d * hs
                 _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf)
-                for i in range(NY):
-                    k1[i] = F0[i]
-                _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, rf)
-                for i in range(NY):
-                    yt[i] = y[i] + 0.5 * hs * k1[i]
-                rhs(yt, W, vd, tab, par, law, lawp, F1, rw, pt, mode, Jb0, side)
-                F1[NY - 2] = vs[seg]
-                F1[NY - 1] = fs[seg]
-                for i in range(NY):
-                    k2[i] = F1[i] - k1[i]
-                _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, rf)
-                for i in range(NY):
-                    k2[i] += k1[i]
-                    yt[i] = y[i] + hs * k2[i]
-                Fe2, I2, ka2, ra2, kb2, rb2 = rhs(yt, W, vd, tab, par, law, lawp, F2, rw, pt, mode, Jn2, side)
-                F2[NY - 2] = vs[seg]
-                F2[NY - 1] = fs[seg]
-                for i in range(NY):
-                    k3[i] = F2[i] - e32 * (k2[i] - F1[i]) - 2.0 * (k1[i] - F0[i])
-                _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, rf)
-                err = 0.0
-                for i in range(NY - 2):
-                    if active[i]:
-                        e = hs / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i]) / (rtol * (abs(y[i]) + sc[i]))
-                        err = max(err, abs(e))
+                err, Fe2, I2, ka2, ra2, kb2, rb2 = _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1,
+                                                           F2, k1, k2, k3, yt, g, Jb, ka, ra, kb, rb, Jb0, n, Mc, piv,
+                                                           Bi,
+                                                           NY, rc, cl, pos, m, cp, rf, Jn2, vs[seg], fs[seg], active,
+                                                           rtol, sc)
                 if not (err == err):
                     return NONFINITE, row, steps, y
                 if err <= 1.0:
-                    # a step that crosses a stop is shortened to end on it (an event)
-                    over = 0.0
-                    if yt[X] < 0.0 < y[X]:
-                        over = y[X] / (y[X] - yt[X])
-                    elif yt[X] > xe > y[X]:
-                        over = (xe - y[X]) / (yt[X] - y[X])
-                    if over == 0.0 or tries >= 6 or (yt[X] < 0.0 and yt[X] > -1e-9 * xe) \
-                            or (yt[X] > xe and yt[X] < xe * (1.0 + 1e-9)):
+                    shorter = _to_stop(y[X], yt[X], xe, hs, tries)
+                    if shorter == 0.0:
                         break
                     tries += 1
-                    hs *= min(max(over, 1e-3), 0.999) * 1.0001 if tries < 4 else 1.0001 * over
+                    hs = shorter
                     last = False
                     continue
                 if reuse:        # rejected on a kept Jacobian: retake it, same step size
@@ -741,21 +809,11 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
                 if steps >= max_steps:
                     return MAX_STEPS, row, steps, y
             if redo:
-                fresh = True
+                js[J_FRESH] = 1.0
                 continue
             for i in range(NY):
                 y[i] = yt[i]
-            clipped = False
-            if y[X] < 0.0:
-                y[X] = 0.0
-                clipped = True
-                if y[VEL] < 0.0:
-                    y[VEL] = 0.0
-            elif y[X] > xe:
-                y[X] = xe
-                clipped = True
-                if y[VEL] > 0.0:
-                    y[VEL] = 0.0
+            clipped = _clip(y, xe)
             t = t_end if last else t + hs
             if last:   # land exactly on the breakpoint's inputs
                 y[NY - 2] = v0[seg] + vs[seg] * (t_end - tb[seg])
@@ -766,13 +824,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
             # last), unless the inputs moved (a breakpoint), a stop clipped it or held it
             have = not (clipped or last or mode == HELD)
             if have:
-                for i in range(NY - 2):
-                    ft[i] = F2[i]
-                for i in range(n):
-                    for c in range(4):
-                        Jn[i, c] = Jn2[i, c]
-                for c in range(rw.shape[0]):
-                    rw0[c] = rw[c]
+                _carry(ft, F2, Jn, Jn2, rw0, rw, n, NY)
                 ka, ra, kb, rb = ka2, ra2, kb2, rb2
                 Fe, I = Fe2, I2
             elif not clipped and mode == FREE and vs[seg] == 0.0 and fs[seg] == 0.0:

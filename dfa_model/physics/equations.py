@@ -42,7 +42,7 @@ GX = np.ascontiguousarray(_GX)
 GW = np.ascontiguousarray(_GW)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rho_of(law, lawp, E_abs):
     """Liquid resistivity for |E_l| under law id `law` (see dielectrics)."""
     if law == 0:
@@ -63,13 +63,13 @@ def rho_of(law, lawp, E_abs):
     return math.exp(lawp[3 + i] * (1.0 - fr) + lawp[4 + i] * fr)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def j_of_E(law, lawp, E):
     """Leakage current density in the liquid for field E (A/m^2)."""
     return E / rho_of(law, lawp, abs(E))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def j_and_slope(law, lawp, E, eps_l):
     """(J_l(E), dJ_l/dsigma_l): the leakage current density and its slope in the liquid
     charge sigma_l = eps_l E (central difference on the law, step 1e-6 |E| + 1e-3 V/m).
@@ -78,7 +78,7 @@ def j_and_slope(law, lawp, E, eps_l):
     return j_of_E(law, lawp, E), (j_of_E(law, lawp, E + hE) - j_of_E(law, lawp, E - hE)) / (2.0 * hE) / eps_l
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def elem_moments(cfg, geo, mat, law, lawp, kin, sa, sb, A, out):
     """Integrals over element [sa, sb] (absolute s) into out:
     [m1 = int 1/u, m2 = int 1/u^2, fI = int (dt_l/dp)/u^2, Q0 = int J_l, Q1 = int J_l/u]."""
@@ -144,7 +144,7 @@ def elem_moments(cfg, geo, mat, law, lawp, kin, sa, sb, A, out):
     out[4] = Q1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def elem_rate(cfg, geo, mat, law, lawp, kin, j, V, ye, r, mom):
     """Rates r[:nb] of element j with states ye[:nb]; returns its force term T_j
     (F_e = w/(2 eps_l) * D * sum_j T_j). mom receives the element moments."""
@@ -172,7 +172,7 @@ def elem_rate(cfg, geo, mat, law, lawp, kin, j, V, ye, r, mom):
     return ds * sl * sl * dgap
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def mech_rhs(cfg, mat, F, y, Fe, ydot):
     """Eq. (7): m x'' + b x' + k x + F + F_e = 0, free motion. The stroke's stops at
     x = 0 (films straight) and x = x_e (front at the electrode end) are events of the
@@ -186,7 +186,7 @@ def mech_rhs(cfg, mat, F, y, Fe, ydot):
         ydot[1] = -(mat[B] * y[1] + F + mat[K] * y[0] + Fe) / mat[MASS]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stroke_velocity(cfg, mat, y, ydot):
     """dx/dt for the outputs: zero while resting on a stop."""
     v = ydot[0] if cfg[C_NBORD] == 1 else y[1]
@@ -195,7 +195,7 @@ def stroke_velocity(cfg, mat, y, ydot):
     return v
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rhs(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, work):
     """ydot = f(y) at voltage V and load F. Returns F_e (N, negative = zipping)."""
     nb, nbord, M = cfg[C_NB], cfg[C_NBORD], cfg[C_M]
@@ -209,7 +209,7 @@ def rhs(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, work):
     return Fe
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def jacobian(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, kin, work, tmp, ytmp):
     """Arrowhead Jacobian: element blocks Jee[j] (nb x nb), their x-column Jeb[j],
     the force row Jbe[j] (d of the force-bearing mechanical rate), and Jbb.
@@ -264,7 +264,7 @@ def jacobian(cfg, geo, mat, law, lawp, V, F, y, f0, Jee, Jeb, Jbe, Jbb, kin, wor
     return fb
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def mech_jacobian(cfg, mat, fx, f0, hx, Jbb):
     """Mechanical block of the Jacobian from f(x + hx) = fx and f(x) = f0."""
     Jbb[:, :] = 0.0
@@ -276,7 +276,7 @@ def mech_jacobian(cfg, mat, fx, f0, hx, Jbb):
         Jbb[1, 1] = -mat[B] / mat[MASS]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def factor(cfg, gh, Jee, Jeb, Jbe, Jbb, fb, Winv, zeta, S):
     """Factor W = I - gh J: per-element inverses Winv, zeta = Wee^-1 Web, Schur S."""
     nb, nbord, M = cfg[C_NB], cfg[C_NBORD], cfg[C_M]
@@ -303,7 +303,7 @@ def factor(cfg, gh, Jee, Jeb, Jbe, Jbb, fb, Winv, zeta, S):
             S[fb, 0] -= -gh * (Jbe[j, 0] * zeta[j, 0] + Jbe[j, 1] * zeta[j, 1])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve(cfg, gh, Winv, zeta, Jbe, S, fb, r, out):
     """out = W^-1 r using the factorization (O(M))."""
     nb, nbord, M = cfg[C_NB], cfg[C_NBORD], cfg[C_M]
@@ -339,7 +339,7 @@ def solve(cfg, gh, Winv, zeta, Jbe, S, fb, r, out):
             out[o + c] -= zeta[j, c] * dx
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def diagnostics(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, work, rec, P):
     """Derived outputs at one state into rec (columns R_LZ..R_Q, R_V, R_VOLT, R_F) and
     powers P = [V I, Joule (both layers), intra-element redistribution, source
@@ -401,7 +401,7 @@ def diagnostics(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, work, rec, P
                   w * PJ, w * Pint, w * Psrc, rec, P)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def write_outputs(layout, geo, mat, kin, y, v, V, F, T, I, C, U, Q, Emax, PJ, Pint, Psrc, rec, P):
     """Fill the output record and the powers from the (scaled) element sums; T is the
     force sum times the lever D."""

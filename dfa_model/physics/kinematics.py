@@ -29,7 +29,7 @@ HALF_PI = 0.5 * math.pi
 
 
 # ---------------------------------------------------------------- peano helpers
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _pf(theta):
     """f(theta) = (theta - sin cos)/theta^2 and its derivative."""
     s, c = math.sin(theta), math.cos(theta)
@@ -44,7 +44,7 @@ def _pf(theta):
     return f, fp
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def peano_state(theta, l, A):
     """(l_z, R, x + l - a_0 (i.e. without a_0), dx/dtheta, P', R') at half-angle theta."""
     f, fp = _pf(theta)
@@ -59,7 +59,7 @@ def peano_state(theta, l, A):
     return l - P, R, x_rel, dxdt, Pp, Rp
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def peano_theta_of_lz(lz, l, A):
     """theta in (0, pi/2] with (theta - s c)/theta^2 = 2A/(l - lz)^2 (bisection+Newton)."""
     g = 2.0 * A / ((l - lz) * (l - lz))
@@ -83,7 +83,7 @@ def peano_theta_of_lz(lz, l, A):
     return th
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def kin_eval(layout, geo, x, kin):
     """Fill kin = [l_z, D, p1..p4] at stroke x (clamped to [0, x_e])."""
     x_e = geo[5]
@@ -128,7 +128,7 @@ def kin_eval(layout, geo, x, kin):
         kin[5] = -Pp                          # dl_z/dtheta
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, _nrt=False, inline='always')
 def profile(layout, geo, kin, sigma):
     """Gap beyond the front at distance sigma = s - l_z: (t_l - t_lz, dt_l/dp at fixed s)."""
     if layout == V_SHAPED:
@@ -143,7 +143,7 @@ def profile(layout, geo, kin, sigma):
     return gap, dgap
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, _nrt=False, inline='always')
 def front_slope(layout, kin):
     """dt_l/ds just beyond the front."""
     if layout == V_SHAPED:
@@ -151,7 +151,7 @@ def front_slope(layout, kin):
     return 2.0 * math.sin(kin[2])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def zipping_angle(layout, geo, kin):
     """Eq. (18) for v-shaped; the half curvature angle theta for peano-hasel (rad)."""
     if layout == V_SHAPED:

@@ -45,7 +45,7 @@ NQMAX = 11
 NWORK = 48    # scratch size for the kernels (>= 4 NQMAX)
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, _nrt=False, inline='always')
 def elem_nodes(layout, const, geo, mat, kin, sa, sb, xi, wt, uu, dd):
     """Quadrature nodes of element [sa, sb]: local coordinate xi in [0, 1], weight
     (m), u = t_l + T0 and dt_l/dp. Returns the number of nodes."""
@@ -108,7 +108,7 @@ def elem_nodes(layout, const, geo, mat, kin, sa, sb, xi, wt, uu, dd):
     return n
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, _nrt=False, inline='always')
 def _g(law, lawp, const, mat, V, qs, u, itau_l, itau_f):
     """Pointwise J_l - J_f and its derivative with respect to q(s)."""
     eps_l, t0 = mat[EPS_L], mat[T0]
@@ -126,7 +126,7 @@ def _g(law, lawp, const, mat, V, qs, u, itau_l, itau_f):
     return A, sl, Jl, g, dg
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     """ydot = f(y); with jac, also the tridiagonal dq'/dq (tri[i] = [sub, diag, sup])
     and the force derivatives jbe[i] = dT/dq_i. Returns F_e. work: scratch, >= 4 NQMAX.
@@ -145,7 +145,11 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     is the device's voltage V_d, which the elements see in place of the source's V:
     w (eps_l V_d' int 1/u + X) = (V - V_d)/R_s, X the rest of the device current
     (conduction, dq'/dt and dP/dt terms, and the gap's motion). jbe[2 nq:3 nq] receives
-    int phi_i/u, jbe[3 nq] d(V_d')/d(x') (see jacobian_p1). jbe: >= 3 nq + 1."""
+    int phi_i/u, jbe[3 nq] d(V_d')/d(x') (see jacobian_p1). jbe: >= 3 nq + 1.
+
+    The element integrals are in _zipped_element (closed form), _element_fast (the
+    constant law's hot path) and _element (any law, the Jacobian, the branch); the
+    lumped mass, the branch's rates and the device current in _lumped."""
     nbord, M = cfg[C_NBORD], cfg[C_M]
     layout = cfg[C_LAYOUT]
     const = law == 0
@@ -162,22 +166,7 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     nq = M + 1
     po = nbord + nq                   # offset of the polarization states
     ichi = 1.0 / mat[CHI_P] if pol else 0.0
-    for i in range(nq):
-        ydot[nbord + i] = 0.0
-        if pol:
-            ydot[po + i] = 0.0        # first accumulates int phi_i sigma_l
-        if jac:
-            tri[i, 0] = 0.0
-            tri[i, 1] = 0.0
-            tri[i, 2] = 0.0
-            jbe[i] = 0.0
-            if pol:
-                tri[i, 3] = 0.0
-                tri[i, 4] = 0.0
-                tri[i, 5] = 0.0
-                jbe[nq + i] = 0.0
-        if rs:
-            jbe[2 * nq + i] = 0.0
+    _clear_rates(ydot, tri, jbe, nbord, nq, po, pol, rs, jac)
     xi = work[0:NQMAX]
     wt = work[NQMAX:2 * NQMAX]
     uu = work[2 * NQMAX:3 * NQMAX]
@@ -197,105 +186,177 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
         a0 = epsV * c_lf / mat[U0]
         a1 = -(t0 * c_lf / mat[U0] + 1.0 / mat[TAU_F])
     for e in range(M):
-        qa = y[nbord + e]
-        qb = y[nbord + e + 1]
         if const and (e + 1) * ds <= lz:
-            ydot[nbord + e] += ds * (0.5 * a0 + a1 * (qa / 3.0 + qb / 6.0))
-            ydot[nbord + e + 1] += ds * (0.5 * a0 + a1 * (qa / 6.0 + qb / 3.0))
-            if jac:
-                tri[e, 1] += a1 * ds / 3.0
-                tri[e, 2] += a1 * ds / 6.0
-                tri[e + 1, 0] += a1 * ds / 6.0
-                tri[e + 1, 1] += a1 * ds / 3.0
-            if rs:
-                m1s += ds * iu0
-                jbe[2 * nq + e] += 0.5 * ds * iu0
-                jbe[2 * nq + e + 1] += 0.5 * ds * iu0
-                SJ += itau_l * ds * iu0 * (epsV - 0.5 * t0 * (qa + qb))
-            if pol:   # sigma_l = (eps_l V - T0 q')/u0, linear in s
-                ydot[po + e] += ds * iu0 * (0.5 * epsV - t0 * (qa / 3.0 + qb / 6.0))
-                ydot[po + e + 1] += ds * iu0 * (0.5 * epsV - t0 * (qa / 6.0 + qb / 3.0))
-                if jac:
-                    tri[e, 4] -= t0 * iu0 * ds / 3.0
-                    tri[e, 5] -= t0 * iu0 * ds / 6.0
-                    tri[e + 1, 3] -= t0 * iu0 * ds / 6.0
-                    tri[e + 1, 4] -= t0 * iu0 * ds / 3.0
+            m1s, SJ = _zipped_element(e, y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, epsV, iu0, a0, a1,
+                                      itau_l, m1s, SJ)
             continue
         nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
-        b0 = 0.0
-        b1 = 0.0
         if const and not jac and not pol:
-            # the hot path (constant law, no Jacobian): g = c_lf sigma_l - q / tau_f
-            dq = qb - qa
-            for k in range(nn):
-                p1 = xi[k]
-                qs = qa + dq * p1
-                sl = (epsV - t0 * qs) / uu[k]
-                wg = wt[k] * (c_lf * sl - qs * itau_f)
-                b1 += wg * p1
-                b0 += wg - wg * p1
-                T += wt[k] * dd[k] * sl * sl
-                if rs:
-                    wu = wt[k] / uu[k]
-                    m1s += wu
-                    jbe[2 * nq + e] += wu * (1.0 - p1)
-                    jbe[2 * nq + e + 1] += wu * p1
-                    SJ += wt[k] * sl * itau_l
-                    SAD += wu * dd[k] * sl
-            ydot[nbord + e] += b0
-            ydot[nbord + e + 1] += b1
-            continue
-        Pa = y[po + e] if pol else 0.0
-        Pb = y[po + e + 1] if pol else 0.0
-        for k in range(nn):
-            p1 = xi[k]
-            p0 = 1.0 - p1
-            qs = qa * p0 + qb * p1
-            A, sl, Jl, g, dg = _g(law, lawp, const, mat, Vd, qs, uu[k], itau_l, itau_f)
-            b0 += wt[k] * p0 * g
-            b1 += wt[k] * p1 * g
-            if rs:
-                wu = wt[k] / uu[k]
-                m1s += wu
-                jbe[2 * nq + e] += wu * p0
-                jbe[2 * nq + e + 1] += wu * p1
-                SJ += wt[k] * Jl
-                SAD += wu * dd[k] * sl
-            if dd[k] != 0.0:
-                wdu = wt[k] * dd[k] * (sl / A if A != 0.0 else 1.0 / uu[k]) ** 2   # w dt_l/dp / u^2
-                T += wdu * A * A
-            else:
-                wdu = 0.0
+            T, m1s, SJ, SAD = _element_fast(e, nn, xi, wt, uu, dd, y, ydot, jbe, nbord, nq, rs, t0, epsV, c_lf, itau_f,
+                                            itau_l, T, m1s, SJ, SAD)
+        else:
+            T, m1s, SJ, SAD = _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe, nbord, nq,
+                                       po, pol, rs, jac, t0, ichi, itau_l, itau_f, T, m1s, SJ, SAD)
+    X = _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, mat[CHI_P], 1.0 / mat[TAU_P], SJ)
+    Fe = mat[W] / (2.0 * mat[EPS_L]) * kin[1] * T
+    mech_rhs(cfg, mat, F, y, Fe, ydot)
+    if rs:
+        kap = kin[1] * SAD / (mat[EPS_L] * m1s)     # d(V_d')/d(x'): the moving gap's current
+        X -= kin[1] * stroke_velocity(cfg, mat, y, ydot) * SAD
+        ydot[nlast] = ((V - Vd) / (mat[W] * mat[R_S]) - X) / (mat[EPS_L] * m1s)
+        jbe[3 * nq] = kap
+    return Fe
+
+
+@njit(cache=True, _nrt=False, inline='always')
+def _clear_rates(ydot, tri, jbe, nbord, nq, po, pol, rs, jac):
+    """Zero the charge (and branch) rates and the Jacobian pieces rhs_p1 accumulates."""
+    for i in range(nq):
+        ydot[nbord + i] = 0.0
+        if pol:
+            ydot[po + i] = 0.0        # first accumulates int phi_i sigma_l
+        if jac:
+            tri[i, 0] = 0.0
+            tri[i, 1] = 0.0
+            tri[i, 2] = 0.0
+            jbe[i] = 0.0
             if pol:
-                ws = wt[k] * sl
-                ydot[po + e] += ws * p0
-                ydot[po + e + 1] += ws * p1
-                Ps = Pa * p0 + Pb * p1
-                # the branch's energy t_l P^2/(2 chi eps_l): in units of the field term
-                # (A^2 (dt_l/dp)/u^2 carries 1/(2 eps_l)), + (dt_l/dp) P^2/chi
-                T += wt[k] * dd[k] * Ps * Ps * ichi
-            if jac:
-                wdg = wt[k] * dg
-                tri[e, 1] += wdg * p0 * p0
-                tri[e, 2] += wdg * p0 * p1
-                tri[e + 1, 0] += wdg * p1 * p0
-                tri[e + 1, 1] += wdg * p1 * p1
-                dT = wdu * 2.0 * A * (-t0)
-                jbe[e] += dT * p0
-                jbe[e + 1] += dT * p1
-                if pol:
-                    wsd = -wt[k] * t0 / uu[k]
-                    tri[e, 4] += wsd * p0 * p0
-                    tri[e, 5] += wsd * p0 * p1
-                    tri[e + 1, 3] += wsd * p1 * p0
-                    tri[e + 1, 4] += wsd * p1 * p1
-                    dTP = wt[k] * dd[k] * 2.0 * Ps * ichi
-                    jbe[nq + e] += dTP * p0
-                    jbe[nq + e + 1] += dTP * p1
-        ydot[nbord + e] += b0
-        ydot[nbord + e + 1] += b1
-    chi, itp = mat[CHI_P], 1.0 / mat[TAU_P]
-    X = SJ      # the device current without its dV_d/dt and gap-motion terms (series resistance)
+                tri[i, 3] = 0.0
+                tri[i, 4] = 0.0
+                tri[i, 5] = 0.0
+                jbe[nq + i] = 0.0
+        if rs:
+            jbe[2 * nq + i] = 0.0
+
+
+@njit(cache=True, _nrt=False, inline='always')
+def _zipped_element(e, y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, epsV, iu0, a0, a1, itau_l, m1s, SJ):
+    """A fully zipped element, constant law: g = a0 + a1 q(s) exactly (u = u0), in
+    closed form. Returns the running int 1/u and int J_l."""
+    qa = y[nbord + e]
+    qb = y[nbord + e + 1]
+    ydot[nbord + e] += ds * (0.5 * a0 + a1 * (qa / 3.0 + qb / 6.0))
+    ydot[nbord + e + 1] += ds * (0.5 * a0 + a1 * (qa / 6.0 + qb / 3.0))
+    if jac:
+        tri[e, 1] += a1 * ds / 3.0
+        tri[e, 2] += a1 * ds / 6.0
+        tri[e + 1, 0] += a1 * ds / 6.0
+        tri[e + 1, 1] += a1 * ds / 3.0
+    if rs:
+        m1s += ds * iu0
+        jbe[2 * nq + e] += 0.5 * ds * iu0
+        jbe[2 * nq + e + 1] += 0.5 * ds * iu0
+        SJ += itau_l * ds * iu0 * (epsV - 0.5 * t0 * (qa + qb))
+    if pol:   # sigma_l = (eps_l V - T0 q')/u0, linear in s
+        ydot[po + e] += ds * iu0 * (0.5 * epsV - t0 * (qa / 3.0 + qb / 6.0))
+        ydot[po + e + 1] += ds * iu0 * (0.5 * epsV - t0 * (qa / 6.0 + qb / 3.0))
+        if jac:
+            tri[e, 4] -= t0 * iu0 * ds / 3.0
+            tri[e, 5] -= t0 * iu0 * ds / 6.0
+            tri[e + 1, 3] -= t0 * iu0 * ds / 6.0
+            tri[e + 1, 4] -= t0 * iu0 * ds / 3.0
+    return m1s, SJ
+
+
+@njit(cache=True, _nrt=False, inline='always')
+def _element_fast(e, nn, xi, wt, uu, dd, y, ydot, jbe, nbord, nq, rs, t0, epsV, c_lf, itau_f, itau_l, T, m1s, SJ,
+                  SAD):
+    """The hot path (constant law, no Jacobian, no branch): g = c_lf sigma_l - q/tau_f
+    at the element's quadrature nodes. Returns the running force integral T and the
+    series resistance's integrals."""
+    qa = y[nbord + e]
+    qb = y[nbord + e + 1]
+    b0 = 0.0
+    b1 = 0.0
+    dq = qb - qa
+    for k in range(nn):
+        p1 = xi[k]
+        qs = qa + dq * p1
+        sl = (epsV - t0 * qs) / uu[k]
+        wg = wt[k] * (c_lf * sl - qs * itau_f)
+        b1 += wg * p1
+        b0 += wg - wg * p1
+        T += wt[k] * dd[k] * sl * sl
+        if rs:
+            wu = wt[k] / uu[k]
+            m1s += wu
+            jbe[2 * nq + e] += wu * (1.0 - p1)
+            jbe[2 * nq + e + 1] += wu * p1
+            SJ += wt[k] * sl * itau_l
+            SAD += wu * dd[k] * sl
+    ydot[nbord + e] += b0
+    ydot[nbord + e + 1] += b1
+    return T, m1s, SJ, SAD
+
+
+@njit(cache=True, _nrt=False, inline='always')
+def _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, t0,
+             ichi, itau_l, itau_f, T, m1s, SJ, SAD):
+    """An element in general (any law; the Jacobian; the polarization branch, whose
+    energy t_l P^2/(2 chi eps_l) adds to the force) at its quadrature nodes. Returns the
+    running force integral T and the series resistance's integrals."""
+    qa = y[nbord + e]
+    qb = y[nbord + e + 1]
+    b0 = 0.0
+    b1 = 0.0
+    Pa = y[po + e] if pol else 0.0
+    Pb = y[po + e + 1] if pol else 0.0
+    for k in range(nn):
+        p1 = xi[k]
+        p0 = 1.0 - p1
+        qs = qa * p0 + qb * p1
+        A, sl, Jl, g, dg = _g(law, lawp, const, mat, Vd, qs, uu[k], itau_l, itau_f)
+        b0 += wt[k] * p0 * g
+        b1 += wt[k] * p1 * g
+        if rs:
+            wu = wt[k] / uu[k]
+            m1s += wu
+            jbe[2 * nq + e] += wu * p0
+            jbe[2 * nq + e + 1] += wu * p1
+            SJ += wt[k] * Jl
+            SAD += wu * dd[k] * sl
+        if dd[k] != 0.0:
+            wdu = wt[k] * dd[k] * (sl / A if A != 0.0 else 1.0 / uu[k]) ** 2   # w dt_l/dp / u^2
+            T += wdu * A * A
+        else:
+            wdu = 0.0
+        if pol:
+            ws = wt[k] * sl
+            ydot[po + e] += ws * p0
+            ydot[po + e + 1] += ws * p1
+            Ps = Pa * p0 + Pb * p1
+            # the branch's energy t_l P^2/(2 chi eps_l): in units of the field term
+            # (A^2 (dt_l/dp)/u^2 carries 1/(2 eps_l)), + (dt_l/dp) P^2/chi
+            T += wt[k] * dd[k] * Ps * Ps * ichi
+        if jac:
+            wdg = wt[k] * dg
+            tri[e, 1] += wdg * p0 * p0
+            tri[e, 2] += wdg * p0 * p1
+            tri[e + 1, 0] += wdg * p1 * p0
+            tri[e + 1, 1] += wdg * p1 * p1
+            dT = wdu * 2.0 * A * (-t0)
+            jbe[e] += dT * p0
+            jbe[e + 1] += dT * p1
+            if pol:
+                wsd = -wt[k] * t0 / uu[k]
+                tri[e, 4] += wsd * p0 * p0
+                tri[e, 5] += wsd * p0 * p1
+                tri[e + 1, 3] += wsd * p1 * p0
+                tri[e + 1, 4] += wsd * p1 * p1
+                dTP = wt[k] * dd[k] * 2.0 * Ps * ichi
+                jbe[nq + e] += dTP * p0
+                jbe[nq + e + 1] += dTP * p1
+    ydot[nbord + e] += b0
+    ydot[nbord + e + 1] += b1
+    return T, m1s, SJ, SAD
+
+
+@njit(cache=True, _nrt=False, inline='always')
+def _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, chi, itp, SJ):
+    """Divide the projections by the lumped mass; the branch's rates dP/dt (added to
+    dq'/dt). Returns X, the device current without its dV_d/dt and gap-motion terms
+    (series resistance; SJ = int J_l)."""
+    X = SJ
     for i in range(nq):
         mi = ds if 0 < i < nq - 1 else 0.5 * ds      # lumped mass
         ydot[nbord + i] /= mi
@@ -315,17 +376,10 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
                     tri[i, c] += tri[i, 3 + c]
         if rs:
             X -= t0 * ydot[nbord + i] * jbe[2 * nq + i]
-    Fe = mat[W] / (2.0 * mat[EPS_L]) * kin[1] * T
-    mech_rhs(cfg, mat, F, y, Fe, ydot)
-    if rs:
-        kap = kin[1] * SAD / (mat[EPS_L] * m1s)     # d(V_d')/d(x'): the moving gap's current
-        X -= kin[1] * stroke_velocity(cfg, mat, y, ydot) * SAD
-        ydot[nlast] = ((V - Vd) / (mat[W] * mat[R_S]) - X) / (mat[EPS_L] * m1s)
-        jbe[3 * nq] = kap
-    return Fe
+    return X
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def jacobian_p1(cfg, geo, mat, law, lawp, V, F, y, f0, tri, Jeb, Jbe, Jbb, kin, tmp, ytmp, work, jbe):
     """Bordered tridiagonal Jacobian: tri (dq'/dq), Jeb[:, 0] (dq'/dx), Jbe[:, 0]
     (d of the force-bearing mechanical rate / dq), Jbb. With polarization also
@@ -385,7 +439,7 @@ def jacobian_p1(cfg, geo, mat, law, lawp, V, F, y, f0, tri, Jeb, Jbe, Jbb, kin, 
     return nbord - 1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _thomas(cp, dinv, tri, tc, gh, r, roff, out, ooff, nq):
     """Solve (I - gh tri[:, tc:tc+3]) z = r[roff:] with the stored factorization."""
     # forward
@@ -399,13 +453,13 @@ def _thomas(cp, dinv, tri, tc, gh, r, roff, out, ooff, nq):
         out[ooff + i] -= cp[i] * out[ooff + i + 1]
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, _nrt=False, inline='always')
 def _beta(mat, gh):
     """Elimination of the polarization states: W_PP = (1 + gh/tau_p) I, beta its inverse."""
     return 1.0 / (1.0 + gh / mat[TAU_P])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _pol_back(tri, gh, beta, rP, roff, zq, zoff, out, ooff, nq):
     """out = beta (r_P + gh T_Pq z_q): the P part of W^-1 r once z_q is known."""
     for i in range(nq):
@@ -417,7 +471,7 @@ def _pol_back(tri, gh, beta, rP, roff, zq, zoff, out, ooff, nq):
         out[ooff + i] = beta * (rP[roff + i] + gh * acc)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def factor_p1(cfg, mat, gh, tri, Jeb, Jbe, Jbb, fb, cp, dinv, zeta, S):
     # S: the border's Schur complement (x, v with mass, V_d with a series resistance)
     """Factor W = I - gh J. With polarization the P unknowns are eliminated first
@@ -465,7 +519,7 @@ def factor_p1(cfg, mat, gh, tri, Jeb, Jbe, Jbb, fb, cp, dinv, zeta, S):
         S[a, 0] -= Jbb[a, 3] * acc
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, _nrt=False, inline='always')
 def _cramer3(S, r0, r1, r2):
     """The 3x3 border system S z = r (x, v, V_d) by Cramer's rule."""
     det = (S[0, 0] * (S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]) - S[0, 1] * (S[1, 0] * S[2, 2] - S[1, 2] * S[2, 0])
@@ -479,7 +533,7 @@ def _cramer3(S, r0, r1, r2):
     return z0, z1, z2
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve_p1(cfg, mat, gh, tri, cp, dinv, zeta, Jbe, Jbb, S, fb, r, out):
     nbord, M = cfg[C_NBORD], cfg[C_M]
     nq = M + 1
@@ -530,7 +584,7 @@ def solve_p1(cfg, mat, gh, tri, cp, dinv, zeta, Jbe, Jbb, S, fb, r, out):
             out[po + i] -= zeta[i, 1] * dx
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, work):
     """Outputs and powers (see equations.diagnostics) for the nodal scheme. The
     'intra' power is the Galerkin projection term int 2 t_f E_f (g - q'(s)) ds."""
