@@ -55,6 +55,7 @@ import numpy as np
 
 from .._jit import njit
 from ..physics.equations import j_and_slope, j_of_E
+from .stepping import grow_factor, shrink_factor, to_stop
 
 # state indices
 X, VEL, VD, QF, PF, QB, PB, QA, PA = range(9)
@@ -637,11 +638,8 @@ def _to_stop(y0, y1, xe, hs, tries):
     """A step from stroke y0 that ends at y1 past a stop is shortened to end on it (an
     event; at most 6 tries, then within 1e-9 x_e past it counts as on it). Returns the
     shortened step, or 0 to accept this one."""
-    over = 0.0
-    if y1 < 0.0 < y0:
-        over = y0 / (y0 - y1)
-    elif y1 > xe > y0:
-        over = (xe - y0) / (y1 - y0)
+    f_near, f_far, side = to_stop(y0, y1, xe)
+    over = f_near / (f_near - f_far) if side != 0 else 0.0
     if over == 0.0 or tries >= 6 or (y1 < 0.0 and y1 > -1e-9 * xe) or (y1 > xe and y1 < xe * (1.0 + 1e-9)):
         return 0.0
     return hs * (min(max(over, 1e-3), 0.999) * 1.0001 if tries < 3 else 1.0001 * over)
@@ -803,7 +801,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
                 if reuse:        # rejected on a kept Jacobian: retake it, same step size
                     redo = True
                     break
-                hs *= max(0.1, 0.9 / err ** (1.0 / 3.0))
+                hs *= shrink_factor(err, 0.1)
                 h = hs
                 last = False
                 if steps >= max_steps:
@@ -833,7 +831,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
                 Fe, I, _, _, _, _ = rhs(y, W, vd, tab, par, law, lawp, k1, rw, pt, AUTO, Jb0)
             _record(rec, row, t, y, I, Fe, NY)
             row += 1
-            h_new = hs * min(5.0, max(0.2, 0.9 / max(err, 1e-12) ** (1.0 / 3.0)))
+            h_new = hs * grow_factor(err)
             h = max(h, h_new) if last else h_new
             for i in range(NY):
                 if not (y[i] == y[i]):
