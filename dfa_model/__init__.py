@@ -18,6 +18,7 @@ from .io.parameters import ParameterError, Parameters, load, preset  # noqa: E40
 from .io.results import Result  # noqa: E402
 from .numerics.solver import SolverError, simulate  # noqa: E402
 from .waveforms import DC, Bipolar, Load, Protocol, Sampled, Stage, Unipolar, WaveformError, from_function  # noqa: E402
+from .io import protocol_file as _protocol_file  # noqa: E402,F401  (registers the protocol file format)
 
 __all__ = ["ConstantResistivity", "LinearResistivity", "PhysicsWarning", "ResistivityLaw", "DFAModel",
            "ParameterError", "Parameters", "load", "preset", "Result", "SolverError", "simulate", "DC",

@@ -15,6 +15,22 @@ import numpy as np
 from .limits import MAX_DURATION, SIGNALS, check_segments, signal_value
 
 
+# The protocol file's reader and writer: dfa_model.io.protocol_file, a layer above the
+# drives it describes, registers itself here when the package is imported, so that
+# Protocol.to_toml/save/from_toml reach it without an import running back up.
+FILE_FORMAT: list = []
+
+
+def register_file_format(module) -> None:
+    FILE_FORMAT[:] = [module]
+
+
+def _file_format():
+    if not FILE_FORMAT:       # only if this module was loaded without its package
+        raise RuntimeError("protocol files: import dfa_model (dfa_model.io.protocol_file) first")
+    return FILE_FORMAT[0]
+
+
 class WaveformError(ValueError):
     """Invalid waveform or protocol input (message names the field)."""
 
@@ -465,17 +481,15 @@ class Protocol:
     def voltage(self, t):
         return self.piecewise()(t)
 
-    # protocol files ------------------------------------------------------------
+    # protocol files (dfa_model.io.protocol_file, which registers itself: FILE_FORMAT) --
     def to_toml(self, header=None) -> str:
         """The protocol-file text (every number exact; `header`: comment lines first)."""
-        from .io.protocol_file import to_toml
-        return to_toml(self, header)
+        return _file_format().to_toml(self, header)
 
     def save(self, path, header=None) -> list:
         """Write a protocol file (long sampled signals go to CSVs beside it); returns the
         paths written."""
-        from .io.protocol_file import save
-        return save(self, path, header)
+        return _file_format().save(self, path, header)
 
     @classmethod
     def from_toml(cls, source, folder=None) -> "Protocol":
@@ -484,7 +498,7 @@ class Protocol:
         current folder)."""
         import os
 
-        from .io import protocol_file
+        protocol_file = _file_format()
         if isinstance(source, os.PathLike) or (isinstance(source, str) and "\n" not in source
                                                and "[[stage]]" not in source):
             return protocol_file.load(source)

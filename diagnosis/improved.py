@@ -106,7 +106,6 @@ def improved_toml(D, dataset_name: str | None = None) -> str:
                 head.append(f"  suggested {k}: {_g(D.suggested.values[k])} +- {D.suggested.stderr[k]:.2g} "
                             f"(kept: nominal {_g(getattr(D.dataset.params, k))})")
             else:
-                from .report import entry_parameters
                 pars = entry_parameters(D, e, D.suggested)
                 head.append(f"  suggested physics {e.key}: " + ", ".join(
                     f"{k} = {_g(v['value'])} +- {v['stderr']:.2g}" for k, v in pars.items()) + " (not added)")
@@ -168,3 +167,14 @@ def write_protocols(D, out: Path) -> dict:
                                    f"replay: dfa simulate --params {NAME} --protocol {PROTOCOLS}/{name}"])
         paths[r.name] = f"{PROTOCOLS}/{name}"
     return paths
+
+
+def entry_parameters(D, e, f=None) -> dict:
+    """A kept entry's parameters in the model's own keys ({key: {value, stderr}}): the
+    fitted coordinates when they are keys, else (a law) the keys they set. f: the fit
+    they come from (default the final model)."""
+    f = D.final if f is None else f
+    if e.shows:
+        return f.model_values(e.shows(f.params) if callable(e.shows) else e.shows)
+    keys = [fp.key for fp in e.spec(f.params, D.context)]
+    return {k: {"value": f.values[k], "stderr": f.stderr[k]} for k in keys}

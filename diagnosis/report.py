@@ -9,6 +9,8 @@ import numpy as np
 
 from dfa_model.io.fileio import write_atomic, write_text_atomic
 
+from .improved import entry_parameters, write_improved, write_protocols
+
 
 def _fit_dict(f) -> dict | None:
     if f is None:
@@ -76,17 +78,6 @@ def to_json(D) -> dict:
         "wall_time": D.wall_time,
     }
     return _clean(out)
-
-
-def entry_parameters(D, e, f=None) -> dict:
-    """A kept entry's parameters in the model's own keys ({key: {value, stderr}}): the
-    fitted coordinates when they are keys, else (a law) the keys they set. f: the fit
-    they come from (default the final model)."""
-    f = D.final if f is None else f
-    if e.shows:
-        return f.model_values(e.shows(f.params) if callable(e.shows) else e.shows)
-    keys = [fp.key for fp in e.spec(f.params, D.context)]
-    return {k: {"value": f.values[k], "stderr": f.stderr[k]} for k in keys}
 
 
 def unverified_suggestions(D) -> list:
@@ -534,7 +525,6 @@ def to_markdown(D, report: dict, plots: dict) -> str:
 
 
 def write(D, out) -> dict:
-    from .improved import write_improved, write_protocols
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     # report.json is written last: present, the whole report is (an interrupted write, or

@@ -11,7 +11,8 @@ polarity-inversion drive schemes.
 from .compare import compare
 from .families import FAMILIES, build, charge, lumped
 from .fitting import Condition, Envelope, evaluate, fit
-from .surrogate import Surrogate, SurrogateError, SurrogateResult, load
+from .files import load
+from .surrogate import Surrogate, SurrogateError, SurrogateResult
 
 __all__ = ["FAMILIES", "build", "charge", "lumped", "compare", "Condition", "Envelope", "evaluate", "fit",
            "Surrogate", "SurrogateError", "SurrogateResult", "load"]

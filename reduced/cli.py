@@ -7,10 +7,8 @@ from __future__ import annotations
 
 import contextlib
 import json
-import math
 import sys
 
-import numpy as np
 
 from dfa_model import cli as base
 from dfa_model.cli import json_safe
@@ -81,7 +79,7 @@ def cmd_reduce(args) -> int:
 
 def cmd_compare(args) -> int:
     from .compare import KEYS, compare, plot
-    from .surrogate import load
+    from .files import load
     s = load(args.model)
     proto = base._protocol(args)
     if args.plot:

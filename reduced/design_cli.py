@@ -47,7 +47,7 @@ def params_and_surrogate(args, say):
     from dfa_model.io import parameters
 
     from .model_cache import surrogate_for
-    from .surrogate import load
+    from .files import load
     if args.model and not (args.preset or args.params):
         s = load(args.model)
         p = parameters.apply_sets(s.params, args.set)

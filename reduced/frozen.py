@@ -236,7 +236,6 @@ def material_tables(model: DFAModel, n_grid: int = 161, n_points: int = 11, c_w:
     wf = np.interp(xf, xf[ok], wf[ok]) if ok.any() else np.ones_like(xf)
     tab[:, sk.WF] = np.maximum(np.interp(xg, xf, wf), W_F_MIN * u0(pm))
     T0 = float(pm.mat[T0_INDEX])
-    s_full = np.linspace(0.0, model.params.l_e, model.params.N)       # the full model's material points
     dv = 1e-3 * x_e
     for i, x in enumerate(xg):
         fv = pm.electrostatic_force(_uniform(pm, x), V_REF)

@@ -60,7 +60,7 @@ def check_same_device(s, params: Parameters, model_name: str, params_name: str) 
                          f"these parameters: fit it with dfa reduce --params FILE --out MODEL, or leave --model out")
     if disc:
         return ("the surrogate was fitted at " + ", ".join(f"{k} = {va!r}" for k, va, _ in disc) +
-                f"; the full-model checks run at " + ", ".join(f"{k} = {vb!r}" for k, _, vb in disc))
+                "; the full-model checks run at " + ", ".join(f"{k} = {vb!r}" for k, _, vb in disc))
     return None
 
 
@@ -94,7 +94,7 @@ def surrogate_for(params: Parameters, family: str = "charge", model=None, params
     cached fit for (params, family), else a new fit, cached. `say(text)` reports what is
     happening (a fit takes seconds to a minute)."""
     from .fitting import fit
-    from .surrogate import load
+    from .files import load
     if model is not None:
         s = load(model)          # the file decides the family
         return s, check_same_device(s, params, str(model), params_name)

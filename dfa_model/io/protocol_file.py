@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import csv
 import math
+import sys
 import tomllib
 from pathlib import Path
 
@@ -37,7 +38,8 @@ import numpy as np
 
 from .fileio import toml_float, write_text_atomic
 from ..limits import MAX_DURATION
-from ..waveforms import DC, Bipolar, Load, Protocol, Sampled, Stage, Unipolar, WaveformError, balanced_phase
+from ..waveforms import (DC, Bipolar, Load, Protocol, Sampled, Stage, Unipolar, WaveformError, balanced_phase,
+                         register_file_format)
 
 WAVEFORMS = ("dc", "bipolar", "unipolar", "sampled")
 COMMON = ("name", "waveform", "duration")
@@ -368,3 +370,6 @@ def save(protocol: Protocol, path, header=None) -> list:
     text = to_toml(protocol, header, side)
     write_text_atomic(path, text)
     return [path] + side.written
+
+
+register_file_format(sys.modules[__name__])
