@@ -663,6 +663,27 @@ def _clip(y, xe):
 
 
 @njit(cache=True, _nrt=False)
+def _land(y, yt, xe, last, V_end, F_end, NY):
+    """The accepted state yt into y, clipped to the stops (_clip); a step that ends the
+    segment lands exactly on the breakpoint's inputs. Returns whether it was clipped."""
+    for i in range(NY):
+        y[i] = yt[i]
+    clipped = _clip(y, xe)
+    if last:
+        y[NY - 2] = V_end
+        y[NY - 1] = F_end
+    return clipped
+
+
+@njit(cache=True, _nrt=False)
+def _finite(y, NY):
+    for i in range(NY):
+        if not (y[i] == y[i]):
+            return False
+    return True
+
+
+@njit(cache=True, _nrt=False)
 def _step_jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, sc, xe, n, NY, m, cl, Jc, Jb, k1, yt,
                    Jb0, yJ, js, clJ, pos, active, f_ramps):
     """The Jacobian of a step: the kept one mirrored (_kept_jacobian) or a new one
@@ -809,15 +830,11 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
             if redo:
                 js[J_FRESH] = 1.0
                 continue
-            for i in range(NY):
-                y[i] = yt[i]
-            clipped = _clip(y, xe)
-            t = t_end if last else t + hs
-            if last:   # land exactly on the breakpoint's inputs
-                y[NY - 2] = v0[seg] + vs[seg] * (t_end - tb[seg])
-                y[NY - 1] = f0[seg] + fs[seg] * (t_end - tb[seg])
             if row >= nrec:
                 return FULL, row, steps, y
+            t = t_end if last else t + hs
+            clipped = _land(y, yt, xe, last, v0[seg] + vs[seg] * (t_end - tb[seg]),
+                            f0[seg] + fs[seg] * (t_end - tb[seg]), NY)
             # the last stage is f at the new state: the next step's start (first same as
             # last), unless the inputs moved (a breakpoint), a stop clipped it or held it
             have = not (clipped or last or mode == HELD)
@@ -833,9 +850,8 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
             row += 1
             h_new = hs * grow_factor(err)
             h = max(h, h_new) if last else h_new
-            for i in range(NY):
-                if not (y[i] == y[i]):
-                    return NONFINITE, row, steps, y
+            if not _finite(y, NY):
+                return NONFINITE, row, steps, y
     return OK, row, steps, y
 
 
