@@ -27,6 +27,9 @@ HERE = Path(__file__).parent
 # _jitcache hashes); EXPORTS and Kernel name them by their last part
 KERNEL_MODULES = ("physics.equations", "physics.nodal", "physics.kinematics", "numerics.stepping", "numerics.kernels",
                   "numerics.stops", "numerics.records", "numerics.integrator", "numerics.surrogate_kernel")
+# everything compiled into the kernels: their modules and the constants-only modules they
+# import (the integrator's state slots), whose values numba freezes into the compiled code
+KERNEL_SOURCES = (*KERNEL_MODULES, "numerics.trbdf2")
 AOT_MODULE = "_kernels_aot"
 
 # The compiled exports: "module.function" -> argument codes, result code. Codes:
@@ -60,7 +63,7 @@ def source_digest() -> str:
     """Hash of everything compiled into the extension: the kernel sources, this table
     and the builder."""
     h = hashlib.sha256()
-    for name in (*KERNEL_MODULES, "_jit", "aot"):
+    for name in (*KERNEL_SOURCES, "_jit", "aot"):
         h.update((HERE / f"{name.replace('.', '/')}.py").read_bytes())
     return h.hexdigest()
 

@@ -10,8 +10,10 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+# _jit.KERNEL_SOURCES (a test checks they agree): the kernels' modules and the constants they compile in
 KERNEL_MODULES = ("physics/equations", "physics/nodal", "physics/kinematics", "numerics/stepping", "numerics/kernels",
-                  "numerics/stops", "numerics/records", "numerics/integrator", "numerics/surrogate_kernel")
+                  "numerics/stops", "numerics/records", "numerics/integrator", "numerics/surrogate_kernel",
+                  "numerics/trbdf2")
 
 
 def refresh() -> None:

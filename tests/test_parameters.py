@@ -102,10 +102,21 @@ def test_jit_cache_hashes_every_kernel_module():
     """_jitcache keeps its own list (it runs before anything is compiled or loaded): it
     must name every module whose kernels are compiled, or an edit there keeps stale code."""
     from dfa_model import _jit, _jitcache
-    assert [m.replace("/", ".") for m in _jitcache.KERNEL_MODULES] == list(_jit.KERNEL_MODULES)
+    assert [m.replace("/", ".") for m in _jitcache.KERNEL_MODULES] == list(_jit.KERNEL_SOURCES)
     import pathlib
     import re
     pkg = pathlib.Path(_jit.__file__).parent
     compiled = sorted(str(f.relative_to(pkg).with_suffix("")).replace("/", ".") for f in pkg.rglob("*.py")
                       if re.search(r"^@njit", f.read_text(), re.M))
     assert compiled == sorted(_jit.KERNEL_MODULES)
+    # what a kernel module imports from the package is compiled in (numba freezes a
+    # module's constants): it is hashed too, or an edit there keeps stale code
+    import sys
+    sys.path.insert(0, str(pathlib.Path(__file__).parent))
+    try:
+        from test_imports import imports, modules
+    finally:
+        sys.path.remove(str(pathlib.Path(__file__).parent))
+    graph = imports(modules(), module_level=True)
+    used = {d.removeprefix("dfa_model.") for m in _jit.KERNEL_MODULES for d in graph[f"dfa_model.{m}"]}
+    assert used - {"_jit"} <= set(_jit.KERNEL_SOURCES), sorted(used - {"_jit"} - set(_jit.KERNEL_SOURCES))

@@ -291,8 +291,8 @@ def integrate(cfg, geo, mat, law, lawp, y0, seg_t, seg_V0, seg_Vs, seg_F0, seg_F
     M = (cfg, geo, mat, law, lawp)
     wk = (np.zeros(6), np.zeros(NWORK), ws[6], ws[7])
     y = y0.copy()
-    # the step's vectors as a tuple of arrays (trbdf2.W_*): rows of one 2-D array made a
-    # view, with its reference count, at every use (7 % of a run)
+    # the step's vectors (trbdf2.W_*), a tuple: a member passes to the pieces as it is,
+    # where a row of a 2-D array would be a new view at every use
     w = (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
          np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n))
     f0, z1, z2, f2 = w[W_F0], w[W_Z1], w[W_Z2], w[W_F2]

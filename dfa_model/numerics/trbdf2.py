@@ -36,11 +36,10 @@ N_COUNTERS = 8
 # trial's outcome (1: past the event, 2: short of it, 0: none)
 EV_T, EV_WA, EV_WB, EV_PREV = range(4)
 
-# rows of w, the vectors of one step (n each): stages, their f, Newton's residual and
+# members of w (a tuple of 15 arrays), the vectors of one step (n each): stages, their f, Newton's residual and
 # update, the error estimate, scratch, the dense output's value and slope, f at the
 # Jacobian's base point, a stage's constant part
 W_Z1, W_Z2, W_F0, W_F1, W_F2, W_FZ, W_RES, W_DZ, W_ERR, W_TMP, W_YTMP, W_YI, W_YDI, W_FBASE, W_BASE = range(15)
-W_ROWS = 15
 
 # rows of eg (NPOW each): the energy accumulators, their value before the step, the
 # powers at the step's start, stage and end, and the accumulators at an output time
