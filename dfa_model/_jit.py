@@ -170,6 +170,53 @@ class Kernel:
         return self.dispatcher(*args)
 
 
+def _installed() -> bool:
+    """Whether this package is an installed copy (a wheel's files in site-packages), not a
+    source checkout (which has its pyproject.toml beside the package)."""
+    return not (HERE.parent / "pyproject.toml").exists()
+
+
+_LOCATOR_SET = False
+
+
+def _cache_outside_installed_package() -> None:
+    """Send numba's on-disk cache of an installed copy's kernels to the user's cache folder
+    instead of the package's own __pycache__. pip's uninstall removes only the files it
+    installed: cache files left in site-packages/dfa_model/ made an empty namespace package
+    there, which shadowed a later editable install. The folder is keyed by the kernel
+    sources' hash, so another version never loads these (numba keys a cache on its own
+    file only; _jitcache does the same job in a checkout). NUMBA_CACHE_DIR still wins."""
+    global _LOCATOR_SET
+    if _LOCATOR_SET or not _installed():
+        return
+    _LOCATOR_SET = True
+    try:
+        from numba.core import caching
+        from numba.misc.appdirs import AppDirs
+        classes = getattr(caching, "CacheImpl", None) or caching._CacheImpl   # _CacheImpl in older numba
+        classes = classes._locator_classes
+        base = caching.UserWideCacheLocator
+    except (ImportError, AttributeError):   # another numba's internals: its default place
+        return
+    package = str(HERE.resolve())
+    root = os.path.join(AppDirs(appname="dfa-toolkit", appauthor=False).user_cache_dir, "numba", source_digest()[:16])
+
+    class InstalledPackageLocator(base):
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            self._cache_path = os.path.join(root, os.path.relpath(os.path.dirname(os.path.realpath(py_file)), package))
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if not os.path.realpath(py_file).startswith(package + os.sep):
+                return None
+            return super().from_function(py_func, py_file)
+
+    # after the user's own NUMBA_CACHE_DIR, before the in-tree __pycache__
+    at = next((i + 1 for i, c in enumerate(classes) if c.__name__ == "UserProvidedCacheLocator"), 0)
+    classes.insert(at, InstalledPackageLocator)
+
+
 def jit_all():
     """Replace every stand-in by numba's dispatcher, in the kernel modules' namespaces
     too, so that kernels compiled now call their callees' dispatchers."""
@@ -177,6 +224,7 @@ def jit_all():
     import sys
 
     from numba import njit as numba_njit
+    _cache_outside_installed_package()
     for k in _KERNELS:
         if k.dispatcher is None:
             k.dispatcher = numba_njit(**k.options)(k.py_func)
@@ -192,6 +240,7 @@ def njit(*args, **options):
     """numba.njit when the kernels are compiled just in time, else the stand-in."""
     if AOT is None:
         from numba import njit as numba_njit
+        _cache_outside_installed_package()
         return numba_njit(*args, **options)
     if args and callable(args[0]):
         return Kernel(args[0], options)

@@ -3,7 +3,8 @@
 numba keys a cached function on its own file only: a kernel that inlines a callee from
 another module keeps the old compiled code after that module changes. We hash all kernel
 sources and drop the package's cache files when the hash changes (before anything is
-compiled or loaded). Read-only installs are left alone.
+compiled or loaded). Only in a source checkout: an installed copy writes nothing into
+its own folder (_jit keys its numba cache on the hash in the user's cache folder).
 """
 from __future__ import annotations
 
@@ -18,6 +19,8 @@ KERNEL_MODULES = ("physics/equations", "physics/nodal", "physics/kinematics", "n
 
 def refresh() -> None:
     here = Path(__file__).parent
+    if not (here.parent / "pyproject.toml").exists():     # installed, not a checkout
+        return
     try:
         digest = hashlib.sha256(b"".join((here / f"{m}.py").read_bytes() for m in KERNEL_MODULES)).hexdigest()
         cache = here / "__pycache__"

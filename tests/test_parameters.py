@@ -1,3 +1,5 @@
+import pathlib
+
 import pytest
 
 from dfa_model import ParameterError, Parameters, load, preset
@@ -84,6 +86,7 @@ def test_jit_cache_is_dropped_when_kernel_sources_change(tmp_path, monkeypatch):
         (pkg / f"{m}.py").parent.mkdir(exist_ok=True)
         (pkg / f"{m}.py").write_text(f"# {m}\n")
     shutil.copy(_jitcache.__file__, pkg / "_jitcache.py")
+    (tmp_path / "pyproject.toml").write_text("")     # a source checkout (installed copies write nothing)
     monkeypatch.syspath_prepend(str(tmp_path))
     import importlib
     jc = importlib.import_module("pkg._jitcache")
@@ -120,3 +123,31 @@ def test_jit_cache_hashes_every_kernel_module():
     graph = imports(modules(), module_level=True)
     used = {d.removeprefix("dfa_model.") for m in _jit.KERNEL_MODULES for d in graph[f"dfa_model.{m}"]}
     assert used - {"_jit"} <= set(_jit.KERNEL_SOURCES), sorted(used - {"_jit"} - set(_jit.KERNEL_SOURCES))
+
+
+def test_installed_copy_keeps_numba_cache_out_of_its_folder(tmp_path):
+    """pip's uninstall removes only the files it installed: numba cache files written into
+    an installed site-packages/dfa_model/ outlived it as a namespace package that shadowed
+    a later editable install. An installed copy (no pyproject.toml beside it) compiled just
+    in time must cache in the user's cache folder instead."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    import dfa_model
+    site = tmp_path / "site"
+    shutil.copytree(pathlib.Path(dfa_model.__file__).parent, site / "dfa_model",
+                    ignore=shutil.ignore_patterns("__pycache__", "_kernels_aot*"))
+    cache = tmp_path / "cache"
+    env = {**os.environ, "DFA_JIT": "1", "XDG_CACHE_HOME": str(cache), "PYTHONPATH": str(site)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    code = ("import numpy as np, dfa_model; from dfa_model.physics import equations as e\n"
+            "assert dfa_model.__file__.startswith(%r)\n"
+            "print(e.rho_of(1, np.array([-1e3, 2e12, 1e11]), 5e7))" % str(site))
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert abs(float(out.stdout) - 2e12 + 5e10) < 1e3
+    written = [p for p in (site / "dfa_model").rglob("*") if p.is_file()]
+    assert not [p for p in written if p.suffix in (".nbi", ".nbc", ".sha256")], written
+    assert list(cache.rglob("equations.rho_of-*.nbi"))            # cached where the user caches
