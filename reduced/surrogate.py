@@ -25,6 +25,7 @@ families.py). Inputs `voltage`, `force`; outputs `stroke`, `current`.
 from __future__ import annotations
 
 import json
+import threading
 import time
 import warnings
 from functools import cached_property
@@ -44,6 +45,22 @@ FORMAT = "dfa-surrogate"
 VERSION = 4     # 4: material points + the front layer as an effective point (3: q_z, q_d, c_ell, beta_f)
 V_S_REL = 1e-8        # the front's side blends over v_s = V_S_REL l_e per second: continuous, all but sharp
 RTOL = 1e-4           # the fast path's tolerance: the stroke's local error bound is rtol (x + x_e)
+
+
+_SCRATCH = threading.local()
+_SCRATCH_ROWS = 1 << 16     # a reusable record buffer up to 5 MB per thread; longer runs allocate their own
+
+
+def _record_buffer(rows: int) -> np.ndarray:
+    """An output buffer of at least `rows` rows: this thread's reused one when it is small
+    (allocating and unmapping a fresh one was ~3 % of a standard-protocol run); the
+    rows a run fills are copied out of it."""
+    if rows > _SCRATCH_ROWS:
+        return np.empty((rows, sk.NREC))
+    buf = getattr(_SCRATCH, "rec", None)
+    if buf is None or buf.shape[0] < rows:
+        buf = _SCRATCH.rec = np.empty((max(rows, 4096), sk.NREC))
+    return buf
 
 
 class SurrogateError(RuntimeError):
@@ -115,6 +132,7 @@ class Surrogate:
         self.info = dict(info or {})
         law = from_parameters(params)
         self._law, self._lawp = int(law.law_id), np.ascontiguousarray(law.params, dtype=float)
+        self._inputs = {}       # _kernel_inputs
 
     # ------------------------------------------------------------------ structure
     @property
@@ -166,6 +184,21 @@ class Surrogate:
     def _index(self):
         """Positions of the named states in the kernel's state vector."""
         return [i for _, i in self._names]
+
+    def _kernel_inputs(self, averaged=False, k_extra=0.0, V_amp=None):
+        """(par, scales) for the kernel, kept between calls (the kernels only read them):
+        rebuilt when anything they are made of changed (the attributes are public)."""
+        key = (bool(averaged), float(k_extra), V_amp, self.c_ell, self.c_w, self.v_s, self.n_points, self.x_e,
+               self._law)
+        hit = self._inputs.get(key)
+        if hit is not None and hit[0] is self.params:
+            return hit[1], hit[2]
+        if len(self._inputs) > 32:
+            self._inputs.clear()
+        par = self.par(averaged, k_extra)
+        sc = self.scales(V_amp) if V_amp is not None else None
+        self._inputs[key] = (self.params, par, sc)
+        return par, sc
 
     def par(self, averaged=False, k_extra=0.0) -> np.ndarray:
         p = self.params
@@ -253,16 +286,15 @@ class Surrogate:
         return y
 
     def _run(self, tb, v0, vs, f0, fs, w2, y, rtol, max_steps, averaged, k_extra=0.0, V_amp=1000.0):
-        par = self.par(averaged, k_extra)
+        par, sc = self._kernel_inputs(averaged, k_extra, float(V_amp))
         cap = min(64 + 40 * len(v0), 4_000_000)
         h0 = min(1e-4, float(tb[-1] - tb[0]))
-        sc = self.scales(V_amp)
         while True:
-            rec = np.empty((cap, sk.NREC))
+            rec = _record_buffer(cap)
             status, rows, steps, y_end = sk.integrate(tb, v0, vs, f0, fs, w2, y, self.tables, par, self._law,
                                                       self._lawp, sc, float(rtol), h0, rec, int(max_steps))
             if status == sk.FULL and cap < 16_000_000:
-                cap *= 4
+                cap = 4 * max(cap, rec.shape[0])
                 continue
             break
         if status != sk.OK:
@@ -277,7 +309,8 @@ class Surrogate:
         y[self._index()] = xs
         y[-2], y[-1] = V, F
         ydot = np.zeros(self.ny)
-        Fe, I = sk.evaluate(y, V * V if W is None else W, float(vdot), self.tables, self.par(), self._law, self._lawp,
+        Fe, I = sk.evaluate(y, V * V if W is None else W, float(vdot), self.tables, self._kernel_inputs()[0], self._law,
+                            self._lawp,
                             ydot, sk.AUTO)
         return ydot[self._index()], I
 

@@ -330,13 +330,14 @@ def rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, jn, side=0.0):
     return _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side)
 
 
-@njit(cache=True)
-def on_stop(y, W, tab, par, law, lawp, ydot, rw, pt):
-    """HELD if the stroke rests on a stop with the force pushing into it, else FREE."""
+@njit(cache=True, _nrt=False)
+def on_stop(y, W, tab, par, law, lawp, ydot, rw, pt, jb0):
+    """HELD if the stroke rests on a stop with the force pushing into it, else FREE (jb0:
+    an empty (0, 4) array, rhs's "do not store the points' blocks")."""
     xe = par[P_XE]
     if 0.0 < y[X] < xe:
         return FREE
-    rhs(y, W, 0.0, tab, par, law, lawp, ydot, rw, pt, FREE, np.empty((0, 4)))
+    rhs(y, W, 0.0, tab, par, law, lawp, ydot, rw, pt, FREE, jb0)
     if y[X] <= 0.0 and ydot[X] <= 0.0 and (par[P_M] == 0.0 or ydot[VEL] <= 0.0):
         return HELD
     if y[X] >= xe and ydot[X] >= 0.0 and (par[P_M] == 0.0 or ydot[VEL] >= 0.0):
@@ -446,9 +447,10 @@ def _uncouple(g, Bi, k, rate, row, b, n, rc, pos):
 
 
 @njit(cache=True, _nrt=False)
-def _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf):
+def _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf, pol):
     """Solve (I - g J) z = b in place, with the factors of _factor (an inactive core
-    state's row is the identity: its entry stays)."""
+    state's row is the identity: its entry stays); pol: the actuator has the
+    polarization branch."""
     for r in range(m):
         rc[r] = b[_state(cl[r], NY)]
     _uncouple(g, Bi, ka, ra, QA, b, n, rc, pos)      # the points' right-hand sides,
@@ -460,6 +462,15 @@ def _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf)
     _lu_solve(Mc, piv, rc, m)
     for r in range(m):
         b[_state(cl[r], NY)] = rc[r]
+    if not pol:
+        # no polarization branch: the points' P rows and couplings are zero (their
+        # entries of b stay 0), so each point's charge is a scalar equation
+        for i in range(n):
+            bq = b[NODE0 + i]
+            for c in range(m):
+                bq -= -g * Jb[i, 0, c] * rc[c]
+            b[NODE0 + i] = Bi[i, 0] * bq
+        return
     for i in range(n):
         bq, bp = b[NODE0 + i], b[NODE0 + n + i]
         for c in range(m):
@@ -605,9 +616,10 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     new state, F2 f there. Returns (error, and rhs's results at yt: force, current and the
     wakes' couplings)."""
     d_e32 = 6.0 + math.sqrt(2.0)
+    pol = par[P_CHI] > 0.0
     for i in range(NY):
         k1[i] = F0[i]
-    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, rf)
+    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, rf, pol)
     for i in range(NY):
         yt[i] = y[i] + 0.5 * hs * k1[i]
     rhs(yt, W, vd, tab, par, law, lawp, F1, rw, pt, mode, Jb0, side)
@@ -615,7 +627,7 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     F1[NY - 1] = fs_k
     for i in range(NY):
         k2[i] = F1[i] - k1[i]
-    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, rf)
+    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, rf, pol)
     for i in range(NY):
         k2[i] += k1[i]
         yt[i] = y[i] + hs * k2[i]
@@ -624,7 +636,7 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     F2[NY - 1] = fs_k
     for i in range(NY):
         k3[i] = F2[i] - d_e32 * (k2[i] - F1[i]) - 2.0 * (k1[i] - F0[i])
-    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, rf)
+    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, rf, pol)
     err = 0.0
     for i in range(NY - 2):
         if active[i]:
@@ -781,7 +793,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
             if t + 1.1 * hs >= t_end:
                 hs = t_end - t
                 last = True
-            mode = on_stop(y, W, tab, par, law, lawp, ft, rw, pt)
+            mode = on_stop(y, W, tab, par, law, lawp, ft, rw, pt, Jb0)
             if not (have and mode == FREE):
                 Fe, I, ka, ra, kb, rb = rhs(y, W, vd, tab, par, law, lawp, ft, rw, pt, mode, Jn, side)
                 for c in range(rw.shape[0]):

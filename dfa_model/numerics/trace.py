@@ -31,14 +31,7 @@ class StrokeTrace:
     def __init__(self, t, x_start, x_stage, x_end, gamma=GAMMA, lo=-np.inf, hi=np.inf):
         t = np.asarray(t, float)
         x_start, x_stage, x_end = (np.asarray(v, float) for v in (x_start, x_stage, x_end))
-        if t.ndim != 1 or t.size < 1 or x_start.size != t.size - 1:
-            raise ValueError("StrokeTrace: need n + 1 times and n pieces")
-        h = t[1:] - t[:-1]
-        if (h < 0).any() or not np.isfinite(t).all():
-            raise ValueError("StrokeTrace: times must be finite and non-decreasing")
-        keep = h > 0                        # zero-length pieces carry no time
-        self.t = np.concatenate([t[:1], t[1:][keep]])
-        self.h = h[keep]
+        keep = self._knots(t, x_start.size)
         a, g, b = x_start[keep], x_stage[keep], x_end[keep]
         self.c2 = ((g - a) - gamma * (b - a)) / (gamma * gamma - gamma)
         self.c1 = b - a - self.c2
@@ -47,6 +40,21 @@ class StrokeTrace:
         self.x_last = float(x_end[-1]) if x_end.size else float("nan")
         # the window queries' tables (_cum, _kx, _vertices) are built on first use: most
         # results are asked for a value or two (unzipping speed, final stroke) only
+
+    def _knots(self, t, pieces):
+        """Check the times, keep the pieces of non-zero length (zero-length pieces carry
+        no time): sets t and h, returns the mask of kept pieces."""
+        if t.ndim != 1 or t.size < 1 or pieces != t.size - 1:
+            raise ValueError("StrokeTrace: need n + 1 times and n pieces")
+        h = t[1:] - t[:-1]
+        if not np.isfinite(t).all() or (h < 0).any():
+            raise ValueError("StrokeTrace: times must be finite and non-decreasing")
+        keep = h > 0
+        if keep.all():
+            self.t, self.h = t, h
+        else:
+            self.t, self.h = np.concatenate([t[:1], t[1:][keep]]), h[keep]
+        return keep
 
     @cached_property
     def _cum(self):
@@ -92,7 +100,15 @@ class StrokeTrace:
         x = np.asarray(x, float)
         if t.shape != x.shape or t.ndim != 1 or t.size == 0:
             raise ValueError("StrokeTrace.from_samples: t and x must be 1-d arrays of equal, non-zero length")
-        return cls(t, x[:-1], x[:-1] + GAMMA * (x[1:] - x[:-1]), x[1:])
+        self = cls.__new__(cls)
+        keep = self._knots(t, t.size - 1)
+        # the linear pieces directly (a quadratic through a point on the line gave c2 at
+        # round-off, not 0)
+        a, b = x[:-1][keep], x[1:][keep]
+        self.c0, self.c1, self.c2 = a, b - a, np.zeros(a.size)
+        self.lo, self.hi = -np.inf, np.inf
+        self.x_last = float(x[-1])
+        return self
 
     # ------------------------------------------------------------------ queries
     @property
