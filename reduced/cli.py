@@ -86,7 +86,7 @@ def cmd_compare(args) -> int:
         check_writable("--plot", args.plot, base.PLOT_FORMATS)
     from .design_cli import surrogate_errors
     with surrogate_errors(args.model):
-        row = compare(s, proto, base._load(args, proto))
+        row = compare(s, proto, base._load(args, proto), repeats=5)
     if args.plot:
         plot(row, args.plot)
     out = {k: json_safe(row[k]) for k in KEYS}
