@@ -103,11 +103,19 @@ def table_row(tab, xe, x, rw):
     h10 = f3 - 2.0 * f2 + f
     h01 = -2.0 * f3 + 3.0 * f2
     h11 = f3 - f2
-    for c in range(NFIX):
-        a, b = tab[i, c], tab[i + 1, c]
-        ma = 0.5 * (b - tab[i - 1, c]) if i > 0 else b - a            # slopes per grid step
-        mb = 0.5 * (tab[i + 2, c] - a) if i + 2 < n else b - a
-        rw[c] = h00 * a + h10 * ma + h01 * b + h11 * mb
+    if 0 < i and i + 2 < n:
+        # an interior interval (all but the two at the ends): centred slopes on both sides
+        for c in range(NFIX):
+            a, b = tab[i, c], tab[i + 1, c]
+            ma = 0.5 * (b - tab[i - 1, c])
+            mb = 0.5 * (tab[i + 2, c] - a)
+            rw[c] = h00 * a + h10 * ma + h01 * b + h11 * mb
+    else:
+        for c in range(NFIX):
+            a, b = tab[i, c], tab[i + 1, c]
+            ma = 0.5 * (b - tab[i - 1, c]) if i > 0 else b - a            # slopes per grid step
+            mb = 0.5 * (tab[i + 2, c] - a) if i + 2 < n else b - a
+            rw[c] = h00 * a + h10 * ma + h01 * b + h11 * mb
     # the material points' gaps enter only their own (slow) rates: linear pieces do
     for c in range(NFIX, tab.shape[1]):
         rw[c] = tab[i, c] * (1.0 - f) + tab[i + 1, c] * f
@@ -159,10 +167,12 @@ def _zipped_mean(y, rw, par, n):
     h = par[P_LE] / (n - 1) if n > 1 else 0.0
     qz = 0.0
     nz = 0
+    lz = rw[LZ]
     for i in range(n):
-        if i * h <= rw[LZ]:
-            qz += y[NODE0 + i]
-            nz += 1
+        if i * h > lz:          # the points lie in order along the electrode: the rest are unzipped
+            break
+        qz += y[NODE0 + i]
+        nz += 1
     return qz / nz if nz > 0 else y[QF]
 
 
@@ -376,8 +386,9 @@ def _lu_solve(M, piv, b, n):
         if p != k:
             b[k], b[p] = b[p], b[k]
     for k in range(n):
+        bk = b[k]
         for i in range(k + 1, n):
-            b[i] -= M[i, k] * b[k]
+            b[i] -= M[i, k] * bk
     for i in range(n - 1, -1, -1):
         s = b[i]
         for j in range(i + 1, n):
@@ -408,13 +419,20 @@ def _couple(g, Jb, Bi, k, rate, row, Mc, pos, m):
 
 
 @njit(cache=True, _nrt=False)
-def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf):
+def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf, pol):
     """Factor I - g J: the points' 2 x 2 blocks (inverted into Bi), then the Schur
     complement of the m active core slots (the wakes' rows see their source points
     through the renewal; the mechanics' row rf sees every point's P through the
-    polarization's force, at rates cp) into Mc, LU'd."""
+    polarization's force, at rates cp) into Mc, LU'd. pol: the actuator has the
+    polarization branch (without it the blocks are diagonal)."""
     for i in range(n):
         a11 = 1.0 - g * Jn[i, 0]
+        if not pol:
+            # no polarization: each block is diag(a11, 1), its inverse diag(1 / a11, 1)
+            # (the general formula's values exactly, with one division instead of four)
+            d = a11 if a11 != 0.0 else 1e-300
+            Bi[i, 0], Bi[i, 1], Bi[i, 2], Bi[i, 3] = 1.0 / d, 0.0, 0.0, 1.0 if a11 != 0.0 else 0.0
+            continue
         a12 = -g * Jn[i, 1]
         a21 = -g * Jn[i, 2]
         a22 = 1.0 - g * Jn[i, 3]
@@ -522,9 +540,10 @@ def _jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, sc, xe
 
 
 @njit(cache=True, _nrt=False)
-def _mirror(Jc, Jb, cl, m, n):
+def _mirror(Jc, Jb, cl, m, n, pol):
     """The Jacobian at the mirrored state (V -> -V): M J M, M negating every state but
-    the stroke and its velocity (and the force input)."""
+    the stroke and its velocity (and the force input). Without the polarization branch
+    (pol False) the points' P rows are zero and stay as they are."""
     for ci in range(m):
         sc_ = 1.0 if (cl[ci] == X or cl[ci] == VEL or cl[ci] == NCORE - 1) else -1.0
         for ri in range(m):
@@ -532,7 +551,8 @@ def _mirror(Jc, Jb, cl, m, n):
             Jc[ri, ci] *= sr * sc_
         for i in range(n):
             Jb[i, 0, ci] *= -sc_
-            Jb[i, 1, ci] *= -sc_
+            if pol:
+                Jb[i, 1, ci] *= -sc_
 
 
 @njit(cache=True, inline="always")
@@ -704,7 +724,7 @@ def _step_jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, s
     js[J_FRESH] = 0.0
     if reuse:
         js[J_USES] += 1.0
-        _mirror(Jc, Jb, cl, m, n)
+        _mirror(Jc, Jb, cl, m, n, par[P_CHI] > 0.0)
         for i in range(NY - 2):
             if not (i == X or i == VEL):
                 yJ[i] = -yJ[i]
@@ -815,7 +835,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
             while True:
                 steps += 1
                 g = d * hs
-                _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf)
+                _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf, par[P_CHI] > 0.0)
                 err, Fe2, I2, ka2, ra2, kb2, rb2 = _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1,
                                                            F2, k1, k2, k3, yt, g, Jb, ka, ra, kb, rb, Jb0, n, Mc, piv,
                                                            Bi,
