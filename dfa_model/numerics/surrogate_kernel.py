@@ -103,19 +103,11 @@ def table_row(tab, xe, x, rw):
     h10 = f3 - 2.0 * f2 + f
     h01 = -2.0 * f3 + 3.0 * f2
     h11 = f3 - f2
-    if 0 < i and i + 2 < n:
-        # an interior interval (all but the two at the ends): centred slopes on both sides
-        for c in range(NFIX):
-            a, b = tab[i, c], tab[i + 1, c]
-            ma = 0.5 * (b - tab[i - 1, c])
-            mb = 0.5 * (tab[i + 2, c] - a)
-            rw[c] = h00 * a + h10 * ma + h01 * b + h11 * mb
-    else:
-        for c in range(NFIX):
-            a, b = tab[i, c], tab[i + 1, c]
-            ma = 0.5 * (b - tab[i - 1, c]) if i > 0 else b - a            # slopes per grid step
-            mb = 0.5 * (tab[i + 2, c] - a) if i + 2 < n else b - a
-            rw[c] = h00 * a + h10 * ma + h01 * b + h11 * mb
+    for c in range(NFIX):
+        a, b = tab[i, c], tab[i + 1, c]
+        ma = 0.5 * (b - tab[i - 1, c]) if i > 0 else b - a            # slopes per grid step
+        mb = 0.5 * (tab[i + 2, c] - a) if i + 2 < n else b - a
+        rw[c] = h00 * a + h10 * ma + h01 * b + h11 * mb
     # the material points' gaps enter only their own (slow) rates: linear pieces do
     for c in range(NFIX, tab.shape[1]):
         rw[c] = tab[i, c] * (1.0 - f) + tab[i + 1, c] * f
@@ -386,9 +378,8 @@ def _lu_solve(M, piv, b, n):
         if p != k:
             b[k], b[p] = b[p], b[k]
     for k in range(n):
-        bk = b[k]
         for i in range(k + 1, n):
-            b[i] -= M[i, k] * bk
+            b[i] -= M[i, k] * b[k]
     for i in range(n - 1, -1, -1):
         s = b[i]
         for j in range(i + 1, n):
