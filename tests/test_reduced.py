@@ -213,6 +213,38 @@ def test_repeated_runs_keep_only_their_inputs():
     assert d.x[0] == c.x[-1] and d.q_f[0] == c.q_f[-1]
 
 
+def test_kept_kernel_inputs_and_buffer_never_go_stale():
+    """The kernel's parameter vectors are kept between runs and the output buffer is
+    reused: a changed public attribute must reach the next run, and a later run must not
+    overwrite an earlier result's arrays."""
+    p = preset("vshape-table1")
+    s = reduced.charge(p)
+    proto = Protocol.reset_then_hold(6000.0, 2.0)
+    a = s.simulate(proto, 5.0)
+    x_a = a.x.copy()
+    s.c_ell = 3.0
+    b = s.simulate(proto, 5.0)
+    assert np.array_equal(b.rec, reduced.charge(p, c_ell=3.0).simulate(proto, 5.0).rec)
+    assert not np.array_equal(a.x, b.x)
+    s.params = p.replace(rho_l=3e12)
+    c = s.simulate(Protocol.dc(6000.0, 30.0), 5.0)        # in a reused buffer larger than it asks for
+    fresh = reduced.charge(p, c_ell=3.0)
+    fresh.params = p.replace(rho_l=3e12)
+    assert np.array_equal(c.rec, fresh.simulate(Protocol.dc(6000.0, 30.0), 5.0).rec)
+    assert np.array_equal(a.x, x_a)
+
+
+def test_compare_times_each_model_the_same_way():
+    from reduced.compare import REPEAT_BUDGET, _timed
+    calls = []
+    out, t = _timed(lambda: calls.append(1) or len(calls), 5)
+    assert out == 1 and len(calls) == 5 and t >= 0.0
+    import time
+    calls.clear()
+    _timed(lambda: calls.append(time.sleep(REPEAT_BUDGET * 0.6)), 5)
+    assert len(calls) == 2          # stops once the runs took REPEAT_BUDGET
+
+
 def test_save_load_roundtrip(fitted, tmp_path):
     path = tmp_path / "m.json"
     fitted.save(path)

@@ -57,6 +57,13 @@ def test_samples_are_joined_linearly():
     assert lo[0] == 0.0 and hi[0] == 5.0
 
 
+def test_sampled_pieces_are_exactly_linear_and_one_sample_is_a_value():
+    tr = StrokeTrace.from_samples(np.array([0.0, 0.1, 0.3]), np.array([1e-3, 1.3e-3, 0.7e-3]))
+    assert np.all(tr.c2 == 0.0)
+    one = StrokeTrace.from_samples(np.array([2.0]), np.array([5e-4]))
+    assert one(2.0) == 5e-4 and one(np.array([1.0, 3.0])).tolist() == [5e-4, 5e-4]
+
+
 def test_peak_of_a_plateau_is_where_it_starts():
     """A stuck stroke creeps by round-off (1e-12 m at 0.8 mm on the paper scheme): its
     peak is where the plateau starts, not the time of the last digit's maximum. A peak
