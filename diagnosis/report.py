@@ -193,8 +193,16 @@ def conclusion(D) -> str:
                      f"{r['measure']} error by {r['gain']:.0%} at N = {r['N']}, by {r['gain_fine']:.0%} at "
                      f"N = {r['N_fine']}): the data ask for a finer N, not this entry")
     elif r and r.get("refined"):
-        parts.append(f"the final model is at N = {r['N_fine']} (N = {r['N']} left its own discretization error: "
-                     f"{r['kept_rmse'] * 1e6:.3g} um {r['measure']} RMSE against {r['kept_fine_rmse'] * 1e6:.3g} um)")
+        gone = [m for m in r.get("marginal", []) if m["dropped"]]
+        if gone:
+            cuts = ", ".join(f"{m['entry']} cut the {r['measure']} error by {m['gain']:.0%} on top of the rest at "
+                             f"N = {r['N']}, by {m['gain_fine']:.0%} at N = {r['N_fine']}" for m in gone)
+            parts.append(f"{', '.join(m['entry'] for m in gone)} dropped ({cuts}): it took up the model's "
+                         f"discretization error, not physics; the final model is the rest at N = {r['N_fine']}")
+        else:
+            parts.append(f"the final model is at N = {r['N_fine']} (N = {r['N']} left its own discretization error: "
+                         f"{r['kept_rmse'] * 1e6:.3g} um {r['measure']} RMSE against "
+                         f"{r['kept_fine_rmse'] * 1e6:.3g} um)")
     if corr:
         parts.append("nominal value(s) corrected: " + ", ".join(corr))
     if D.unverified:
