@@ -127,9 +127,9 @@ def test_each_kept_entry_must_hold_on_its_own_when_the_elements_double(tmp_path)
     """Inertia in data from N = 81, fitted at N = 21 with 0.5 um noise: the rounds keep
     inertia, then a polarization branch beside it that takes up half of what is left - the
     coarse model's discretization error. The set passes the resolution check (inertia's gain
-    holds), so each entry is refitted without it: the branch's own gain falls from 50 % at
-    N = 21 to 13 % at N = 41, and it is dropped; inertia's holds (lab-rig trial: a field law
-    was named beside inertia this way in 3 of 3 inertia datasets)."""
+    holds), so the last entry is refitted without it: the branch's own gain falls from 50 %
+    at N = 21 to 13 % at N = 41, and it is dropped (lab-rig trial: a field law was named
+    beside inertia this way in 3 of 3 inertia datasets)."""
     nominal = preset("vshape-table1").replace(N=21, rho_l=3e12)
     generate_dataset(tmp_path / "data", nominal.replace(N=81, rho_l=2e12, m=0.05), nominal,
                      [(5000.0, 5.0), (6000.0, 5.0), (7000.0, 5.0)], repetitions=2, reset=0.5, hold=5.0, seed=3,
