@@ -39,8 +39,8 @@ from dfa_model.interrupt import stop_pool
 
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .fit import fit, local_executor
-from .model import apply
 from .locate import condition_trends, locate
+from .model import apply
 from .screen import Screen, predicted_delta_bic, probes
 
 BIC_MIN = 10.0       # "very strong" evidence on the BIC scale
@@ -256,7 +256,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                     # even SCREEN_SKIP times its predicted fall would not beat an accepted one
                     ev[key]["skipped"] = f"{SCREEN_SKIP:g} x its predicted BIC fall is short of an accepted candidate's"
                     continue
-                spec = baseline_spec(p, ctx) + [fp for k in kept for fp in k.spec(p, ctx)] + e.spec(p, ctx)
+                spec = _spec(p, ctx, [*kept, e])
                 say(f"round {rnd + 1}: fitting {e.key}")
                 best, errors = None, []
                 for st in (e.starts(p, ctx) if e.starts else [{}]):
@@ -274,9 +274,8 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                 shape = None
                 if e.refine:
                     rivals = [f for k, f in fits.items() if _name(k) == _name(key)]
-                    best, shape = _more_shape(dataset, e, best, lambda q: baseline_spec(q, ctx) + [
-                        fp for k in kept for fp in k.spec(q, ctx)] + e.spec(q, ctx), ctx, holdout, executor, say,
-                        rivals)
+                    best, shape = _more_shape(dataset, e, best, lambda q: _spec(q, ctx, [*kept, e]), ctx, holdout,
+                                              executor, say, rivals)
                 fits[key] = best
                 ev[key] = {"screen": screens[key], "fitted": True, **_evidence(best, current)}
                 if shape:
@@ -419,8 +418,8 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
                                    "baseline_fine_rmse": _error(ff), "resolution_only": False,
                                    "inconclusive": "the baseline fits no better at the finer N: resolution is not what "
                                                    "the model misses here (or the data were made at this N)"}
-        fk = fit(dataset, baseline_spec(pk, ctx) + [fp for e in kept for fp in e.spec(pk, ctx)], base=pk,
-                 holdout=holdout, executor=executor, warm=current, max_nfev=RES_NFEV)
+        fk = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
+                 max_nfev=RES_NFEV)
     except Exception as exc:       # the check cannot run: say so, keep what was found
         return kept, current, {"N": N, "N_fine": Nf, "error": f"{type(exc).__name__}: {exc}", "resolution_only": False}
     gain = 1.0 - _error(current) / _error(f0)
@@ -435,10 +434,9 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
         if marginal:
             rec["marginal"] = marginal
             rec["dropped_marginal"] = [m["entry"] for m in marginal if m["dropped"]]
-            rec["kept_fine_rmse"] = _error(fk)
             if rec["dropped_marginal"]:
                 # the rest holds: the finer model without the dropped entries is the final one
-                rec["refined"] = True
+                rec["kept_fine_rmse"], rec["refined"] = _error(fk), True
                 return kept, fk, rec
         if _error(fk) < _error(current):
             # the physics holds and the finer model fits better: it is the final model (a kept
@@ -453,23 +451,29 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
         f"at N = {Nf}: it took up the model's discretization error, not physics")
     final = ff
     if nominal_kept:
-        p = fb
-        for e in nominal_kept:
-            p = e.prepare(p, ctx)
-        final = fit(dataset, baseline_spec(p, ctx) + [fp for e in nominal_kept for fp in e.spec(p, ctx)], base=p,
-                    holdout=holdout, executor=executor, warm=current, max_nfev=CANDIDATE_NFEV)
+        p, spec = _prepared(fb, nominal_kept, ctx)
+        final = fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=current, max_nfev=CANDIDATE_NFEV)
     return nominal_kept, final, rec
+
+
+def _spec(p, ctx, entries) -> list:
+    """The free parameters of the baseline on p and of `entries`, in that order."""
+    return baseline_spec(p, ctx) + [fp for e in entries for fp in e.spec(p, ctx)]
+
+
+def _prepared(base, entries, ctx):
+    """(base with `entries` prepared in order, their model's spec (_spec))."""
+    p = base
+    for e in entries:
+        p = e.prepare(p, ctx)
+    return p, _spec(p, ctx, entries)
 
 
 def _without(drop, kept, fitted, base, ctx):
     """(params, spec) of the kept model without entry `drop`, on `base`, started where the
     joint fit `fitted` (Parameters) ended: every other entry prepared and set to its fitted
     values (the resistivity level at its reference field when the dropped one is a law)."""
-    others = [x for x in kept if x is not drop]
-    p = base
-    for x in others:
-        p = x.prepare(p, ctx)
-    spec = baseline_spec(p, ctx) + [fp for x in others for fp in x.spec(p, ctx)]
+    p, spec = _prepared(base, [x for x in kept if x is not drop], ctx)
     return apply(p, spec, [fp.to_z(fp.get(fitted)) for fp in spec]), spec
 
 
