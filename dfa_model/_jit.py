@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ._jitcache import installed
+
 HERE = Path(__file__).parent
 # modules whose njit functions go into the compiled code, under the package (also: what
 # _jitcache hashes); EXPORTS and Kernel name them by their last part
@@ -170,12 +172,6 @@ class Kernel:
         return self.dispatcher(*args)
 
 
-def _installed() -> bool:
-    """Whether this package is an installed copy (a wheel's files in site-packages), not a
-    source checkout (which has its pyproject.toml beside the package)."""
-    return not (HERE.parent / "pyproject.toml").exists()
-
-
 _LOCATOR_SET = False
 
 
@@ -187,7 +183,7 @@ def _cache_outside_installed_package() -> None:
     sources' hash, so another version never loads these (numba keys a cache on its own
     file only; _jitcache does the same job in a checkout). NUMBA_CACHE_DIR still wins."""
     global _LOCATOR_SET
-    if _LOCATOR_SET or not _installed():
+    if _LOCATOR_SET or not installed():
         return
     _LOCATOR_SET = True
     try:

@@ -17,9 +17,15 @@ KERNEL_MODULES = ("physics/equations", "physics/nodal", "physics/kinematics", "n
                   "numerics/trbdf2")
 
 
+def installed() -> bool:
+    """Whether this package is an installed copy (a wheel's files in site-packages), not a
+    source checkout (which has its pyproject.toml beside the package)."""
+    return not (Path(__file__).parent.parent / "pyproject.toml").exists()
+
+
 def refresh() -> None:
     here = Path(__file__).parent
-    if not (here.parent / "pyproject.toml").exists():     # installed, not a checkout
+    if installed():
         return
     try:
         digest = hashlib.sha256(b"".join((here / f"{m}.py").read_bytes() for m in KERNEL_MODULES)).hexdigest()
