@@ -275,7 +275,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                 if e.refine:
                     rivals = [f for k, f in fits.items() if _name(k) == _name(key)]
                     best, shape = _more_shape(dataset, e, best, lambda q: _spec(q, ctx, [*kept, e]), ctx, holdout,
-                                              executor, say, rivals)
+                                              executor, say, rivals, current)
                 fits[key] = best
                 ev[key] = {"screen": screens[key], "fitted": True, **_evidence(best, current)}
                 if shape:
@@ -320,14 +320,22 @@ def _at_noise(f) -> bool:
     return _error(f) <= SHAPE_DONE * f.sigma
 
 
-def _more_shape(dataset, e, best, spec_of, ctx, holdout, executor, say, rivals=()):
+def _more_shape(dataset, e, best, spec_of, ctx, holdout, executor, say, rivals=(), current=None):
     """The data choose a flexible form's complexity (catalog Entry.refine: the spline
     law's knots): from the fitted form, fit the next one, started where the last fit
     ended, and keep it while the BIC falls by more than SHAPE_BIC - until the form, or a
     rival form of its entry (`rivals`: their fits) with a lower BIC, leaves the error at
-    the noise (SHAPE_DONE): more shape could then only fit noise. Returns the best fit and
-    the search's steps [{n_knots, delta_bic, heldout_rmse}] (delta_bic against the first form)."""
+    the noise (SHAPE_DONE): more shape could then only fit noise. The search runs only for
+    a first form that `current` (the model it is fitted on top of) would accept: a law that
+    explains nothing at its simplest is not what is missing, and its extra knots only bend
+    it towards what another entry explains (a two-knot spline beside a series resistance
+    cut the held-out error by 0.0 %, then by 0.25-1.1 % per knot up to six knots, each step
+    passing the BIC test: 330 s of a 480 s diagnosis that then named a branch). Returns
+    the best fit and the search's steps [{n_knots, delta_bic, heldout_rmse}] (delta_bic
+    against the first form)."""
     first, steps = best, []
+    if current is not None and not _accept(best, current):
+        return best, steps
     while not (_at_noise(best) or any(r.bic < best.bic and _at_noise(r) for r in rivals)) \
             and (q := e.refine(best.params, ctx)) is not None:
         say(f"fitting {e.key} with {q.n_knots} knots")

@@ -224,6 +224,16 @@ def test_the_data_choose_the_spline_knots(monkeypatch):
     assert search([NS(bic=-1.0, heldout_rmse=1.05e-7, sigma=1e-7)]) == (first, []) and not starts
     assert search([NS(bic=+1.0, heldout_rmse=1.05e-7, sigma=1e-7)])[0].params.n_knots == 4
     assert search([NS(bic=-1.0, heldout_rmse=3e-7, sigma=1e-7)])[0].params.n_knots == 4
+    # a first form the model it is fitted on top of would not accept (a held-out fall under
+    # HELDOUT_MIN) starts no search: its knots would only bend it to another entry's effect;
+    # an accepted one does
+    search_on = lambda current: dg._more_shape(None, entry, first, lambda q: entry.spec(q, ctx), ctx,  # noqa: E731
+                                               None, None, lambda s: None, (), current)
+    starts.clear()
+    held = 2e-6 / (1 - 0.5 * dg.HELDOUT_MIN)
+    assert search_on(NS(bic=bic[2] + 100.0, heldout_rmse=held)) == (first, []) and not starts
+    assert search_on(NS(bic=bic[2] + 100.0, heldout_rmse=2e-6 / (1 - 2 * dg.HELDOUT_MIN)))[0].params.n_knots == 4
+    assert search_on(NS(bic=bic[2] + 0.5 * dg.BIC_MIN, heldout_rmse=1e-5)) == (first, [])
 
 
 def test_a_job_carries_evenly_spaced_sample_times_in_three_numbers():
