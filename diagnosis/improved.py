@@ -109,10 +109,7 @@ def improved_toml(D, dataset_name: str | None = None) -> str:
                 pars = entry_parameters(D, e, D.suggested)
                 head.append(f"  suggested physics {e.key}: " + ", ".join(
                     f"{k} = {_g(v['value'])} +- {v['stderr']:.2g}" for k, v in pars.items()) + " (not added)")
-    if getattr(D, "raised", None):
-        a, b = D.raised[0], D.raised[-1]
-        head.append(f"N raised from {a['N']} to {b['N_fine']} before the selection: the baseline's error "
-                    f"{a['error'] * 1e6:.3g} -> {b['error_fine'] * 1e6:.3g} um (the model's own resolution)")
+    head += raised_phrases(getattr(D, "raised", None) or [])
     r = getattr(D, "resolution", None)
     if r and r.get("resolution_only"):
         head.append(f"N raised from {r['N']} to {r['N_fine']}: {', '.join(r['dropped'])} only took up the model's "
@@ -167,6 +164,23 @@ def write_protocols(D, out: Path) -> dict:
                                    f"replay: dfa simulate --params {NAME} --protocol {PROTOCOLS}/{name}"])
         paths[r.name] = f"{PROTOCOLS}/{name}"
     return paths
+
+
+def raised_phrases(raised: list) -> list:
+    """What resolution first did (Diagnosis.raised), one phrase per run of steps: before
+    the selection (the baseline's error) or after an entry was kept (the kept model's)."""
+    out, i = [], 0
+    while i < len(raised):
+        j = i
+        while j + 1 < len(raised) and raised[j + 1].get("after") == raised[i].get("after"):
+            j += 1
+        a, b, after = raised[i], raised[j], raised[i].get("after")
+        when, whose = ("before the selection", "the baseline's") if after is None else \
+            (f"after {after} was kept", "the kept model's")
+        out.append(f"N raised from {a['N']} to {b['N_fine']} {when}: {whose} error {a['error'] * 1e6:.3g} -> "
+                   f"{b['error_fine'] * 1e6:.3g} um (the model's own resolution, not missing physics)")
+        i = j + 1
+    return out
 
 
 def entry_parameters(D, e, f=None) -> dict:

@@ -9,7 +9,7 @@ import numpy as np
 
 from dfa_model.io.fileio import write_atomic, write_text_atomic
 
-from .improved import entry_parameters, write_improved, write_protocols
+from .improved import entry_parameters, raised_phrases, write_improved, write_protocols
 
 
 def _fit_dict(f) -> dict | None:
@@ -182,11 +182,7 @@ def conclusion(D) -> str:
         parts.append("no missing physics verified")
     else:
         parts.append("no missing physics found")
-    if D.raised:
-        a, b = D.raised[0], D.raised[-1]
-        parts.append(f"N raised from {a['N']} to {b['N_fine']} before the selection (the baseline's error "
-                     f"{a['error'] * 1e6:.3g} -> {b['error_fine'] * 1e6:.3g} um: the model's own resolution at "
-                     f"N = {a['N']}, not missing physics)")
+    parts += raised_phrases(D.raised)
     r = D.resolution
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "
