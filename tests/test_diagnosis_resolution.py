@@ -239,3 +239,20 @@ def test_the_last_entry_is_checked_when_the_finer_baseline_fits_no_better(monkey
     kept, final, rec = dg._resolution_check(None, base, None, [branch], before, f0, None, None, lambda s: None,
                                             before=f0)
     assert kept == [branch] and final is before and "marginal" not in rec
+
+
+def test_raised_steps_are_told_before_the_selection_and_after_an_entry():
+    """report.md's conclusion and improved.toml tell each run of raises: before the
+    selection (the baseline's error) or after a kept entry (the kept model's)."""
+    from diagnosis.improved import raised_phrases
+    steps = [{"N": 21, "error": 11e-6, "N_fine": 41, "error_fine": 6e-6, "after": None},
+             {"N": 41, "error": 4.5e-6, "N_fine": 81, "error_fine": 2e-6, "after": "inertia"}]
+    a, b = raised_phrases(steps)
+    assert a.startswith("N raised from 21 to 41 before the selection: the baseline's error 11 -> 6 um")
+    assert b.startswith("N raised from 41 to 81 after inertia was kept: the kept model's error 4.5 -> 2 um")
+    # two doublings in one run read as one phrase; a step without `after` (older reports) as before
+    one = raised_phrases([{**steps[0], "after": "inertia"}, {**steps[1]}])
+    assert len(one) == 1 and "from 21 to 81 after inertia" in one[0] and "11 -> 2 um" in one[0]
+    assert raised_phrases([{k: v for k, v in steps[0].items() if k != "after"}])[0].endswith(
+        "(the model's own resolution, not missing physics)")
+    assert raised_phrases([]) == []
