@@ -176,7 +176,8 @@ def raised_phrases(raised: list) -> list:
             j += 1
         a, b, after = raised[i], raised[j], raised[i].get("after")
         when, whose = ("before the selection", "the baseline's") if after is None else \
-            (f"after {after} was kept", "the kept model's")
+            ("after the selection kept nothing (resolution last)", "the baseline's") \
+            if after == "(nothing kept)" else (f"after {after} was kept", "the kept model's")   # diagnose.NOTHING_KEPT
         out.append(f"N raised from {a['N']} to {b['N_fine']} {when}: {whose} error {a['error'] * 1e6:.3g} -> "
                    f"{b['error_fine'] * 1e6:.3g} um (the model's own resolution, not missing physics)")
         i = j + 1
