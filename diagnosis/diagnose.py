@@ -39,6 +39,7 @@ from dfa_model.interrupt import stop_pool
 
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .fit import fit, local_executor
+from .improved import NOTHING_KEPT
 from .locate import condition_trends, locate
 from .model import apply
 from .screen import Screen, predicted_delta_bic, probes
@@ -296,7 +297,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                 current = fits[best_key]
                 say(f"kept {best_key}: BIC {ev[best_key]['delta_bic']:+.1f}, held out {_um(current.heldout_rmse)}")
                 base, f0, current, before, steps = _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout,
-                                                               executor, say, RAISE_MAX - len(raised))
+                                                               executor, say, RAISE_MAX - len(raised), fine)
                 if steps:
                     raised, fine = raised + steps, None     # the next rounds, and the checks, run at the finer N
             retry = _retry_finer(dataset, base, ctx, f0, kept, holdout, executor, say, RAISE_MAX - len(raised),
@@ -389,8 +390,7 @@ def _resolve(dataset, base, ctx, f0, holdout, executor, say):
         Nf = fine_N(base.N)
         fb = base.replace(N=Nf)
         try:
-            ff = fit(dataset, baseline_spec(fb, ctx), base=fb, holdout=holdout, executor=executor, warm=f0,
-                     max_nfev=RES_NFEV)
+            ff = _fine_baseline(dataset, fb, ctx, f0, holdout, executor)
         except Exception:          # the finer model cannot run: stay (the check after selection says so)
             break
         if not _error(ff) < RAISE_GAIN * _error(f0):
@@ -400,9 +400,6 @@ def _resolve(dataset, base, ctx, f0, holdout, executor, say):
         steps.append({"N": base.N, "error": _error(f0), "N_fine": Nf, "error_fine": _error(ff), "after": None})
         base, f0 = fb, ff
     return base, f0, steps, None
-
-
-NOTHING_KEPT = "(nothing kept)"   # Diagnosis.raised step's `after` when _retry_finer raised N
 
 
 def _retry_finer(dataset, base, ctx, f0, kept, holdout, executor, say, budget, fine=None):
@@ -422,8 +419,7 @@ def _retry_finer(dataset, base, ctx, f0, kept, holdout, executor, say, budget, f
     Nf = fine_N(base.N)
     fb = base.replace(N=Nf)
     try:
-        ff = fine if fine is not None else fit(dataset, baseline_spec(fb, ctx), base=fb, holdout=holdout,
-                                               executor=executor, warm=f0, max_nfev=RES_NFEV)
+        ff = _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine)
     except Exception:          # the finer model cannot run: the verdict stands at N
         return None
     say(f"resolution last: nothing kept at N = {base.N} with {_um(_error(f0))} left; the selection again at "
@@ -431,7 +427,7 @@ def _retry_finer(dataset, base, ctx, f0, kept, holdout, executor, say, budget, f
     return fb, ff, {"N": base.N, "error": _error(f0), "N_fine": Nf, "error_fine": _error(ff), "after": NOTHING_KEPT}
 
 
-def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor, say, budget):
+def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor, say, budget, fine=None):
     """Resolution first after each kept entry, as _resolve before the selection: while the
     kept model leaves more than RAISE_FLOOR sensor noises and its refit at fine_N (warm,
     RES_NFEV evaluations) cuts that error below RAISE_GAIN of it, the next rounds run at
@@ -442,7 +438,8 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
     0.034) - while the baseline fitted no better at the finer N, so resolution first
     before the selection kept N = 21 and a field law was named beside each, taking up that
     error. The baseline (and the fit the last entry was added to) are refitted at the new N
-    too, so the checks after the selection compare models at one N. Returns (base,
+    too, so the checks after the selection compare models at one N (`fine`: the baseline's
+    refit at fine_N if _resolve made it, reused). Returns (base,
     baseline fit, kept fit, the fit the last entry was added to, steps [{N, error,
     N_fine, error_fine, after}])."""
     steps = []
@@ -456,8 +453,7 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
                      max_nfev=RES_NFEV)
             if not _error(fk) < RAISE_GAIN * _error(current):
                 break
-            f0n = fit(dataset, baseline_spec(fb, ctx), base=fb, holdout=holdout, executor=executor, warm=f0,
-                      max_nfev=RES_NFEV)
+            f0n = _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine)
             bn = before
             if before is f0:
                 bn = f0n
@@ -505,54 +501,42 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
     fb = base.replace(N=Nf)
     pk = current.params.replace(N=Nf)
     try:
-        ff = fine if fine is not None else fit(dataset, baseline_spec(fb, ctx), base=fb, holdout=holdout,
-                                               executor=executor, warm=f0, max_nfev=RES_NFEV)
-        if _error(ff) >= RES_PREMISE * _error(f0):
-            # the finer baseline fits no better: the misfit is not the model's resolution (a
-            # large missing effect dominates it), or the data share the model's own grid
-            # (synthetic data made at this N); either way the kept set stands as a whole - but
-            # the last of two or more entries is still checked on its own, against the kept
-            # model without it, which needs no finer baseline (a field law beside a branch cut
-            # 23 % at N = 41 on the lab rig, where the branch alone fitted at N = 81 left 1.1
-            # noises, while the baseline fitted 18 % worse there)
-            rec = {"N": N, "N_fine": Nf, "measure": "held-out" if ff.heldout_rmse is not None else "training",
-                   "baseline_rmse": _error(f0), "baseline_fine_rmse": _error(ff), "resolution_only": False,
-                   "inconclusive": "the baseline fits no better at the finer N: resolution is not what "
-                                   "the model misses here (or the data were made at this N)"}
-            if not (before is not None and kept[-1].kind == "physics"
-                    and sum(e.kind == "physics" for e in kept) >= 2):
-                return kept, current, rec
+        ff = _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine)
+        # the finer baseline fitting no better: the misfit is not the model's resolution (a
+        # large missing effect dominates it), or the data share the model's own grid
+        # (synthetic data made at this N); either way the kept set stands as a whole - but
+        # the last of two or more entries is still checked on its own, against the kept
+        # model without it, which needs no finer baseline (a field law beside a branch cut
+        # 23 % at N = 41 on the lab rig, where the branch alone fitted at N = 81 left 1.1
+        # noises, while the baseline fitted 18 % worse there)
+        inconclusive = _error(ff) >= RES_PREMISE * _error(f0)
+        if not (inconclusive and not _checks_last_entry(kept, before)):
             fk = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
                      max_nfev=RES_NFEV)
-            kept, fk, marginal = _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, executor,
-                                                   say)
-            if marginal:
-                rec["marginal"] = marginal
-                rec["dropped_marginal"] = [m["entry"] for m in marginal if m["dropped"]]
-                if rec["dropped_marginal"]:
-                    rec["kept_rmse"], rec["kept_fine_rmse"], rec["refined"] = _error(current), _error(fk), True
-                    return kept, fk, rec
-            return kept, current, rec
-        fk = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
-                 max_nfev=RES_NFEV)
     except Exception as exc:       # the check cannot run: say so, keep what was found
         return kept, current, {"N": N, "N_fine": Nf, "error": f"{type(exc).__name__}: {exc}", "resolution_only": False}
+    measure = "held-out" if ff.heldout_rmse is not None else "training"
+    if inconclusive:
+        rec = {"N": N, "N_fine": Nf, "measure": measure, "baseline_rmse": _error(f0), "baseline_fine_rmse": _error(ff),
+               "resolution_only": False,
+               "inconclusive": "the baseline fits no better at the finer N: resolution is not what "
+                               "the model misses here (or the data were made at this N)"}
+        if not _checks_last_entry(kept, before):
+            return kept, current, rec
+        kept, fk = _marginal(rec, dataset, fb, ctx, kept, current, before, fk, holdout, executor, say)
+        return kept, (fk if rec.get("refined") else current), rec
     gain = 1.0 - _error(current) / _error(f0)
     gain_fine = 1.0 - _error(fk) / _error(ff)
     only = not _accept(fk, ff) or gain_fine < RES_SHRINK * gain
-    rec = {"N": N, "N_fine": Nf, "measure": "held-out" if ff.heldout_rmse is not None else "training",
+    rec = {"N": N, "N_fine": Nf, "measure": measure,
            "baseline_rmse": _error(f0), "kept_rmse": _error(current), "baseline_fine_rmse": _error(ff),
            "kept_fine_rmse": _error(fk), "gain": gain, "gain_fine": gain_fine, "resolution_only": bool(only),
            "dropped": [e.key for e in kept if e.kind == "physics"] if only else []}
     if not only:
-        kept, fk, marginal = _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, executor, say)
-        if marginal:
-            rec["marginal"] = marginal
-            rec["dropped_marginal"] = [m["entry"] for m in marginal if m["dropped"]]
-            if rec["dropped_marginal"]:
-                # the rest holds: the finer model without the dropped entries is the final one
-                rec["kept_fine_rmse"], rec["refined"] = _error(fk), True
-                return kept, fk, rec
+        kept, fk = _marginal(rec, dataset, fb, ctx, kept, current, before, fk, holdout, executor, say)
+        if rec.get("refined"):
+            # the rest holds: the finer model without the dropped entries is the final one
+            return kept, fk, rec
         if _error(fk) < _error(current):
             # the physics holds and the finer model fits better: it is the final model (a kept
             # law of an N = 21 fit to a finer truth left 2.5 noises held out, 1.4 at N = 41; the
@@ -592,6 +576,36 @@ def _without(drop, kept, fitted, base, ctx):
     return apply(p, spec, [fp.to_z(fp.get(fitted)) for fp in spec]), spec
 
 
+def _checks_last_entry(kept, before) -> bool:
+    """Whether _last_entry_check applies: two or more physics entries kept, the last of
+    them physics, and the fit it was added to known."""
+    return bool(kept) and kept[-1].kind == "physics" and before is not None \
+        and sum(x.kind == "physics" for x in kept) >= 2
+
+
+def _marginal(rec, dataset, fb, ctx, kept, current, before, fk, holdout, executor, say):
+    """_last_entry_check into the resolution check's record `rec`: `marginal` and
+    `dropped_marginal`, and when the last entry is dropped the errors of the final model,
+    the rest refitted at the finer N (`kept_rmse`, `kept_fine_rmse`, `refined`). Returns
+    (kept, the kept model's fit at the finer N)."""
+    kept, fk, marginal = _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, executor, say)
+    if marginal:
+        rec["marginal"] = marginal
+        rec["dropped_marginal"] = [m["entry"] for m in marginal if m["dropped"]]
+        if rec["dropped_marginal"]:
+            rec["kept_rmse"], rec["kept_fine_rmse"], rec["refined"] = _error(current), _error(fk), True
+    return kept, fk
+
+
+def _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine=None):
+    """The baseline refitted on fb (the finer N), warm from f0 (RES_NFEV evaluations);
+    `fine`, the same refit made before (_resolve), is used when it is on fb's N."""
+    if fine is not None and fine.params.N == fb.N:
+        return fine
+    return fit(dataset, baseline_spec(fb, ctx), base=fb, holdout=holdout, executor=executor, warm=f0,
+               max_nfev=RES_NFEV)
+
+
 def _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, executor, say):
     """With two or more physics entries kept, the last one (fitted on top of all the
     others) must hold on its own when the elements double, as the whole set must
@@ -606,9 +620,9 @@ def _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, exec
     last entry is refitted: each refit at the finer N costs as much as the check itself.
     Returns (kept, the kept model's fit at the finer N, [{entry, gain, gain_fine,
     rmse_without, dropped}] or [])."""
-    e = kept[-1] if kept else None
-    if e is None or e.kind != "physics" or before is None or sum(x.kind == "physics" for x in kept) < 2:
+    if not _checks_last_entry(kept, before):
         return kept, fk, []
+    e = kept[-1]
     say(f"resolution check: {e.key} on its own (the kept model without it at N = {fb.N})")
     try:
         p, spec = _without(e, kept, fk.params, fb, ctx)

@@ -166,6 +166,9 @@ def write_protocols(D, out: Path) -> dict:
     return paths
 
 
+NOTHING_KEPT = "(nothing kept)"   # a Diagnosis.raised step's `after` when the rounds kept nothing (resolution last)
+
+
 def raised_phrases(raised: list) -> list:
     """What resolution first did (Diagnosis.raised), one phrase per run of steps: before
     the selection (the baseline's error) or after an entry was kept (the kept model's)."""
@@ -177,7 +180,7 @@ def raised_phrases(raised: list) -> list:
         a, b, after = raised[i], raised[j], raised[i].get("after")
         when, whose = ("before the selection", "the baseline's") if after is None else \
             ("after the selection kept nothing (resolution last)", "the baseline's") \
-            if after == "(nothing kept)" else (f"after {after} was kept", "the kept model's")   # diagnose.NOTHING_KEPT
+            if after == NOTHING_KEPT else (f"after {after} was kept", "the kept model's")
         out.append(f"N raised from {a['N']} to {b['N_fine']} {when}: {whose} error {a['error'] * 1e6:.3g} -> "
                    f"{b['error_fine'] * 1e6:.3g} um (the model's own resolution, not missing physics)")
         i = j + 1
