@@ -230,7 +230,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         windows = locate(dataset, f0)
         trends = condition_trends(dataset, windows)
         pool = list(candidates) if candidates is not None else PHYSICS + NOMINAL
-        rounds = []
+        rounds, tried = [], None
         while True:
             kept, current, before = [], f0, None
             for rnd in range(MAX_ROUNDS):
@@ -296,8 +296,9 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                 before = current            # the model the last kept entry was fitted on top of
                 current = fits[best_key]
                 say(f"kept {best_key}: BIC {ev[best_key]['delta_bic']:+.1f}, held out {_um(current.heldout_rmse)}")
-                base, f0, current, before, steps = _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout,
-                                                               executor, say, RAISE_MAX - len(raised), fine)
+                base, f0, current, before, steps, tried = _raise_kept(dataset, base, ctx, kept, current, f0, before,
+                                                                      holdout, executor, say, RAISE_MAX - len(raised),
+                                                                      fine)
                 if steps:
                     raised, fine = raised + steps, None     # the next rounds, and the checks, run at the finer N
             retry = _retry_finer(dataset, base, ctx, f0, kept, holdout, executor, say, RAISE_MAX - len(raised),
@@ -317,7 +318,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
             say(f"nothing held out: {', '.join(e.key for e in unverified)} not applied (unverified suggestions)")
         if any(e.kind == "physics" for e in kept):
             kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
-                                                         say, fine, before)
+                                                         say, fine, before, tried)
         final_windows = locate(dataset, current) if current is not f0 else None
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
                          final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
@@ -441,7 +442,8 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
     too, so the checks after the selection compare models at one N (`fine`: the baseline's
     refit at fine_N if _resolve made it, reused). Returns (base,
     baseline fit, kept fit, the fit the last entry was added to, steps [{N, error,
-    N_fine, error_fine, after}])."""
+    N_fine, error_fine, after}], (kept fit, its refit at fine_N) when that refit was made
+    and not taken, else None: the same refit _resolution_check would make)."""
     steps = []
     for _ in range(max(budget, 0)):
         if _error(current) <= RAISE_FLOOR * current.sigma:
@@ -452,7 +454,7 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
             fk = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
                      max_nfev=RES_NFEV)
             if not _error(fk) < RAISE_GAIN * _error(current):
-                break
+                return base, f0, current, before, steps, (current, fk)
             f0n = _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine)
             bn = before
             if before is f0:
@@ -468,7 +470,7 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
         steps.append({"N": base.N, "error": _error(current), "N_fine": Nf, "error_fine": _error(fk),
                       "after": kept[-1].key})
         base, f0, current, before = fb, f0n, fk, bn
-    return base, f0, current, before, steps
+    return base, f0, current, before, steps, None
 
 
 def fine_N(N: int) -> int:
@@ -476,7 +478,8 @@ def fine_N(N: int) -> int:
     return 2 * (N - 1) + 1
 
 
-def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, say, fine=None, before=None):
+def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, say, fine=None, before=None,
+                      tried=None):
     """Rule out the model's own discretization error before naming missing physics. The
     baseline and the kept model are refitted at fine_N (warm-started: a few steps). Real
     physics keeps its gain over the baseline when the elements double; an entry that only
@@ -489,7 +492,8 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
     fits better than at N, that refit is the final model (record 'refined'): the model's
     own resolution error is not left to read as unexplained mismatch. `fine`: the
     baseline's refit at fine_N if _resolve already made it; `before`: the fit the last kept
-    entry was fitted on top of (_last_entry_check). The check assumes the finer
+    entry was fitted on top of (_last_entry_check); `tried`: (kept fit, its refit at
+    fine_N) if _raise_kept made it (_fine_kept). The check assumes the finer
     model is nearer the data; when the finer baseline fits no better (RES_PREMISE), the data share the model's own grid
     (synthetic data made at this N: then the coarse model is exact and the finer one off by
     its discretization error) and the check is inconclusive: what was kept stands.
@@ -511,8 +515,7 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
         # noises, while the baseline fitted 18 % worse there)
         inconclusive = _error(ff) >= RES_PREMISE * _error(f0)
         if not (inconclusive and not _checks_last_entry(kept, before)):
-            fk = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
-                     max_nfev=RES_NFEV)
+            fk = _fine_kept(dataset, pk, ctx, kept, current, holdout, executor, tried)
     except Exception as exc:       # the check cannot run: say so, keep what was found
         return kept, current, {"N": N, "N_fine": Nf, "error": f"{type(exc).__name__}: {exc}", "resolution_only": False}
     measure = "held-out" if ff.heldout_rmse is not None else "training"
@@ -595,6 +598,16 @@ def _marginal(rec, dataset, fb, ctx, kept, current, before, fk, holdout, executo
         if rec["dropped_marginal"]:
             rec["kept_rmse"], rec["kept_fine_rmse"], rec["refined"] = _error(current), _error(fk), True
     return kept, fk
+
+
+def _fine_kept(dataset, pk, ctx, kept, current, holdout, executor, tried=None):
+    """The kept model refitted on pk (its parameters at the finer N), warm from `current`
+    (RES_NFEV evaluations); `tried` = (fit, its refit), the same refit made before
+    (_raise_kept), is used when its fit is `current` and its refit on pk's N."""
+    if tried is not None and tried[0] is current and tried[1].params.N == pk.N:
+        return tried[1]
+    return fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
+               max_nfev=RES_NFEV)
 
 
 def _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine=None):

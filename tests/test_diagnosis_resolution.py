@@ -72,6 +72,17 @@ def test_physics_that_holds_is_refitted_where_the_model_resolves_the_data(monkey
         assert kept == [entry] and not rec["resolution_only"], rec
         assert bool(rec.get("refined")) is refined
         assert final.params.N == (41 if refined else 21) and final.heldout_rmse == min(fine_kept, 5.2e-6)
+    # the kept model's refit that _raise_kept made and did not take is not made again; one of
+    # another fit (an entry kept since) is not used
+    fits = iter([res(5.7e-6, -400.0, 41)])
+    monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+    kept, final, rec = dg._resolution_check(None, base, None, [entry], current, f0, None, None, lambda s: None,
+                                            tried=(current, res(3.0e-6, -1400.0, 41)))
+    assert rec["kept_fine_rmse"] == 3.0e-6 and final.heldout_rmse == 3.0e-6
+    fits = iter([res(5.7e-6, -400.0, 41), res(3.1e-6, -1400.0, 41)])
+    kept, final, rec = dg._resolution_check(None, base, None, [entry], current, f0, None, None, lambda s: None,
+                                            tried=(res(5.2e-6, -900.0, 21), res(3.0e-6, -1400.0, 41)))
+    assert rec["kept_fine_rmse"] == 3.1e-6
 
 
 def test_a_truth_law_outside_the_parameter_file(tmp_path):
@@ -180,20 +191,23 @@ def test_resolution_first_after_each_kept_entry(monkeypatch):
                               budget), calls
 
     # two doublings: (kept, baseline) refitted at 41, then at 81
-    (b, f, cur, bef, steps), calls = run([4.5e-6, 19e-6, 2.0e-6, 18e-6], [entry], f0, 2)
+    (b, f, cur, bef, steps, tried), calls = run([4.5e-6, 19e-6, 2.0e-6, 18e-6], [entry], f0, 2)
     assert b.N == 81 and cur.params.N == 81 and f.params.N == 81 and calls == [41, 41, 81, 81]
     assert bef is f            # the last entry was added to the baseline: its refit is the new reference
+    assert tried is None       # every refit was taken
     assert [(s["N"], s["N_fine"], s["after"]) for s in steps] == [(21, 41, "inertia"), (41, 81, "inertia")]
     # the budget left by resolution first before the selection bounds it
-    (b, *_, steps), calls = run([4.5e-6, 19e-6], [entry], f0, 1)
+    (b, *_, steps, _), calls = run([4.5e-6, 19e-6], [entry], f0, 1)
     assert b.N == 41 and len(steps) == 1 and calls == [41, 41]
     assert run([], [entry], f0, 0)[1] == []
-    # the finer kept model fits no better (above RAISE_GAIN of the error): N stays, one fit made
-    (b, f, cur, bef, steps), calls = run([9.5e-6], [entry], f0, 2)
+    # the finer kept model fits no better (above RAISE_GAIN of the error): N stays, one fit made,
+    # handed on with the fit it refits (the resolution check would make the same refit)
+    (b, f, cur, bef, steps, tried), calls = run([9.5e-6], [entry], f0, 2)
     assert b.N == 21 and f is f0 and steps == [] and calls == [41]
+    assert tried[0] is cur and tried[1].params.N == 41 and tried[1].heldout_rmse == 9.5e-6
     # a second entry: the fit it was added to is refitted at the finer N as well
     before = res(12e-6, 21)
-    (b, f, cur, bef, steps), calls = run([4.5e-6, 19e-6, 5e-6], [other, entry], before, 1)
+    (b, f, cur, bef, steps, _), calls = run([4.5e-6, 19e-6, 5e-6], [other, entry], before, 1)
     assert calls == [41, 41, 41] and bef.params.N == 41 and bef.heldout_rmse == 5e-6
     # within RAISE_FLOOR noises nothing is tried
     monkeypatch.setattr(dg, "fit", lambda *a, **k: pytest.fail("no refit expected"))
