@@ -153,7 +153,11 @@ def _no_change(p: Parameters, ctx: Context) -> Parameters:
 PHYSICS = [
     Entry("stiffness", _no_change,
           lambda p, ctx: [FreeParameter("k", False, 0.0, 1e6, scale=_force_scale(p))],
-          "an elastic restoring force k x (films, bonded edges, a compliant load)"),
+          "an elastic restoring force k x (films, bonded edges, a compliant load)",
+          # the fit is not convex in k either: on the lab rig (k = 49 N/m) the search from
+          # k = 0 stayed there, or stopped at 5 N/m above the baseline's cost; from 0.2 of
+          # the scale (44 N/m on Table 1) it reached 36 N/m, 31 % below the baseline's RMSE
+          starts=lambda p, ctx: [{}, {"k": 0.2 * _force_scale(p)}]),
     Entry("inertia", _no_change,
           lambda p, ctx: [FreeParameter("m", False, 0.0, 100.0, scale=0.01)],
           "a generalized mass m (the stroke's acceleration)",

@@ -275,3 +275,24 @@ def test_a_large_batch_of_runs_goes_in_few_tasks_in_order():
         F._run = real
     assert out == [10 * j for j in range(150)] and calls == list(range(150))
     assert F.TASKS <= Counting.tasks <= 2 * F.TASKS
+
+
+def test_entries_neutral_on_a_bound_start_off_it_too():
+    """A stiffness, a mass and a branch are neutral at 0, on their bound, where the fit is
+    not convex (the lab rig's k = 49 N/m: from 0 the search stayed at 0, or stopped at
+    5 N/m above the baseline's cost; from 44 N/m it reached 36 N/m): each is fitted from
+    the neutral point where it has one and from a start off the bound within its bounds,
+    and the screen probes that start as well."""
+    from diagnosis.catalog import PHYSICS, Context
+    from diagnosis.screen import probes
+    p = preset("vshape-table1").replace(N=21)
+    ctx = Context(V_max=7000.0, V_ref=6000.0, E_ref=5.84e7)
+    for name, key in (("stiffness", "k"), ("inertia", "m"), ("polarization_branch", "chi_p")):
+        e = next(x for x in PHYSICS if x.name == name)
+        spec = {f.key: f for f in e.spec(p, ctx)}
+        off = [st for st in e.starts(p, ctx) if st.get(key, 0.0) > 0]
+        assert off, name
+        for st in off:
+            lo, hi = spec[key].z_bounds()
+            assert lo < spec[key].to_z(st[key]) < hi, (name, st)
+        assert any(getattr(q, key) == off[0][key] and one_sided for q, one_sided in probes(e, p, ctx)), name
