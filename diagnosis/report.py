@@ -69,6 +69,7 @@ def to_json(D) -> dict:
         "unexplained": unexplained(D),
         "resolution": D.resolution,
         "resolution_first": D.raised,
+        "drive_timing": D.clock,
         "headline": headline(D),
         "trends": D.trends,
         "candidates": D.rounds,
@@ -183,6 +184,10 @@ def conclusion(D) -> str:
     else:
         parts.append("no missing physics found")
     parts += raised_phrases(D.raised)
+    timed = [k for k, v in (D.clock or {}).items() if v["applied"]]
+    if timed:
+        parts.append(f"the drive's timing was refitted from the stroke in {len(timed)} of {len(D.clock)} recordings "
+                     f"(switches read one by one off the voltage record: drive_timing)")
     r = D.resolution
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "

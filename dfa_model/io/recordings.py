@@ -143,6 +143,11 @@ class Recording:
     hold_voltage: float = 0.0
     reset_end: float = 0.0
     group: tuple | None = None      # its condition, set by read_dataset (group_conditions)
+    # the drive read off the voltage: its switch instants (s) and the level of each stretch
+    # (the stretch before the first switch, then after each one): retimed() rebuilds it
+    switches: np.ndarray | None = None
+    levels: tuple = ()
+    gridded: bool = False           # the reset's switches were put on one regular grid (_regular_switches)
 
     @property
     def duration(self) -> float:
@@ -685,12 +690,16 @@ def _regular_switches(t_sw: np.ndarray, dt: float) -> np.ndarray:
     record of an ideal square wave only brackets each switch within a sample (the
     interpolated crossing errs by up to dt/2), but a regular wave's switches lie on
     t0 + k P/2, and the sampling phase walks along the wave, so a straight-line fit
-    through all of them averages those errors out. Used when every switch lies within
-    0.75 dt of the line (the first one - the end of a pre-trigger stretch at 0 V - and
-    the last one - the start of the hold - may be off it); else the measured crossings
-    stand."""
-    for first, last in ((0, 0), (0, 1), (1, 0), (1, 1)):
-        n = len(t_sw) - first - last
+    through all of them averages those errors out. The last switch starts the hold: it is
+    not the wave's (a generator's reset ends when its own timer says, off the wave's grid
+    by up to a clock error times the reset - 1 ms and more), and is never on the line: a
+    unipolar 2 Hz reset's three switches and the hold's, all within 0.75 dt of one line,
+    gave a line 1.2e-3 off the wave's period and its switches 0.6 ms off. Used when every
+    other switch lies within 0.75 dt of the line (the first one - the end of a pre-trigger
+    stretch at 0 V - may be off it); else the measured crossings stand. The stroke then
+    refines the timing of both (diagnosis/clock.py)."""
+    for first in (0, 1):
+        n = len(t_sw) - first - 1
         if n < 4:
             continue
         k = np.arange(n)
@@ -716,7 +725,9 @@ def _interpret(rec: Recording) -> None:
         dv = v[i + 1] - v[i]
         f = 0.5 if dv == 0 else min(max((mid - v[i]) / dv, 0.0), 1.0)
         t_sw.append(t[i] + f * (t[i + 1] - t[i]))
-    t_sw = _regular_switches(np.array(t_sw), float(np.median(np.diff(t))))
+    raw = np.array(t_sw)
+    t_sw = _regular_switches(raw, float(np.median(np.diff(t))))
+    rec.gridded = bool(len(raw) and not np.array_equal(t_sw, raw))
     edges = np.concatenate([[0.0], t_sw, [t[-1]]])
     starts = np.concatenate([[0], sw + 1])
     ends = np.concatenate([sw + 1, [len(t)]])
@@ -737,13 +748,8 @@ def _interpret(rec: Recording) -> None:
                              f"expected a recording that ends in its hold")
     rec.amplitude = A
     rec.hold_voltage = levels[-1]
-    rec.reset_end = float(edges[-2])
-    stages = []
-    if len(levels) > 1:
-        reset = Sampled(edges[:-2], np.array(levels[:-1]), hold=True)
-        stages.append(Stage(reset, float(edges[-2]), "reset"))
-    stages.append(Stage(DC(levels[-1]), float(edges[-1] - edges[-2]), "hold"))
-    rec.protocol = Protocol(stages)
+    rec.switches, rec.levels = np.asarray(t_sw, float), tuple(levels)
+    _drive(rec)
     if lev[0] != 0:
         rec.notes.append("no rest stretch before the drive: the sensor zero is fitted over the whole recording with "
                          "its timing, not read at rest (it then also takes up a constant stroke mismatch)")
@@ -759,6 +765,50 @@ def _interpret(rec: Recording) -> None:
                          f"as a sampled load")
     else:
         rec.load = Load(Fm)
+
+
+def _drive(rec: Recording) -> None:
+    """rec.protocol and rec.reset_end from rec.switches and rec.levels: the levels held
+    between the switches, the last one held to the end of the recording."""
+    edges = np.concatenate([[0.0], rec.switches, [rec.duration]])
+    levels = rec.levels
+    rec.reset_end = float(edges[-2])
+    stages = []
+    if len(levels) > 1:
+        reset = Sampled(edges[:-2], np.array(levels[:-1]), hold=True)
+        stages.append(Stage(reset, float(edges[-2]), "reset"))
+    stages.append(Stage(DC(levels[-1]), float(edges[-1] - edges[-2]), "hold"))
+    rec.protocol = Protocol(stages)
+
+
+CLOCK_MIN_SWITCHES = 3   # a clock rate needs the reset's switches at three instants or more to show
+
+
+def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: float = 0.0) -> Recording:
+    """A copy of rec whose drive ran on other timing than read off its voltage record:
+    the reset's switches (all but the last) `shift` seconds later and stretched by
+    (1 + clock) about the first one (its generator's clock `clock` slower than the
+    sampler's), and the hold's start (the last switch) `hold_shift` seconds later. A
+    generator's clock is not the data-acquisition system's (0.1 % apart is common); a
+    1 kHz record of a few switches cannot show it (8 switches of a 2 Hz train drift by
+    0.6 ms in all at 3.5e-4, less than a sample), nor a switch within its sample, and the
+    zipping each switch starts moves at ~1 m/s (the diagnosis fits them from the stroke:
+    diagnosis/clock.py)."""
+    import copy
+    out = copy.copy(rec)
+    if rec.switches is None or len(rec.switches) == 0:
+        return out
+    sw = rec.switches.copy()
+    if len(sw) > 1:
+        sw[:-1] = sw[0] + shift + (sw[:-1] - sw[0]) * (1.0 + clock)
+    sw[-1] += hold_shift
+    if not (np.all(np.diff(sw) > 0) and 0.0 < sw[0] and sw[-1] < rec.duration):
+        raise RecordingError(f"{rec.name}: the drive's timing corrected by {shift:g} s, {clock:g} and {hold_shift:g} s "
+                             f"puts its switches out of order or outside the recording; expected small corrections")
+    out.switches = sw
+    out.notes = list(rec.notes)
+    _drive(out)
+    return out
 
 
 def _files(folder, layout) -> list:
