@@ -38,7 +38,6 @@ from dataclasses import dataclass, field
 from dfa_model.interrupt import stop_pool
 
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
-from .clock import calibrate as calibrate_clock
 from .fit import fit, local_executor
 from .improved import NOTHING_KEPT
 from .locate import condition_trends, locate
@@ -97,8 +96,6 @@ class Diagnosis:
     raised: list = field(default_factory=list)       # resolution first (_resolve, _raise_kept):
     #                                                   [{N, error, N_fine, error_fine, after: None or the entry kept}]
     suggested: object | None = None            # FitResult of the baseline + unverified (None: no suggestion)
-    clock: dict | None = None                  # the drives' clocks fitted (clock.calibrate; None: no recording had
-    #                                            enough switches)
 
     @property
     def held_out(self) -> bool:
@@ -229,12 +226,6 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         say("baseline fit (rho_l)")
         f0 = fit(dataset, baseline_spec(base, ctx), base=base, holdout=holdout, executor=executor)
         base, f0, raised, fine = _resolve(dataset, base, ctx, f0, holdout, executor, say)
-        dataset, clock = calibrate_clock(dataset, f0, executor, say)
-        if clock and any(v["applied"] for v in clock.values()):
-            # the baseline on the drives as they ran (the refit at the finer N with them)
-            f0 = fit(dataset, baseline_spec(base, ctx), base=f0.params, holdout=holdout, executor=executor, warm=f0,
-                     max_nfev=RES_NFEV)
-            fine = None
         say(f"baseline: train RMSE {f0.train_rmse * 1e6:.3g} um, held out {_um(f0.heldout_rmse)}; locating")
         windows = locate(dataset, f0)
         trends = condition_trends(dataset, windows)
@@ -331,7 +322,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         final_windows = locate(dataset, current) if current is not f0 else None
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
                          final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
-                         raised=raised, clock=clock,
+                         raised=raised,
                          suggested=suggested)
     except BaseException:
         if own:                  # Ctrl-C or an error: the workers' runs are not waited for

@@ -44,9 +44,13 @@ from threadpoolctl import threadpool_limits
 
 from dfa_model.interrupt import local_pool
 from dfa_model.io.parameters import Parameters
+from dfa_model.io.recordings import RecordingError, retimed
 from dfa_model.io.synthetic import scaled_resistivity
 
 from .model import apply, start
+from .timing import BOUND as TIMING_BOUND
+from .timing import STEPS as TIMING_STEPS
+from .timing import nuisances as timing_nuisances
 
 SIGMA_REP = 0.05     # prior SD of log(rho_l) between repetitions
 DELTA_BOUND = 0.5    # |delta_i| at most (a factor 1.65)
@@ -128,6 +132,8 @@ def _run(job):
     """One recording on the full model (module-level: runs in worker processes): its
     stroke and stroke rate at the samples (rows), from the solver's dense record."""
     params, protocol, load, t = job
+    if isinstance(protocol, str):      # a drive the timing could not be applied to (Problem.jobs)
+        return protocol
     t = _times(t)
     from dfa_model import simulate
     try:
@@ -251,6 +257,8 @@ class FitResult:
     cov_z: np.ndarray | None = None   # covariance of the spec's globals in their fitted coordinates
     z: np.ndarray | None = None       # the spec's globals in their fitted coordinates
     lsq: dict | None = field(default=None, repr=False)   # the search's end: Jacobian, residuals, factors (screen.py)
+    timing: dict = field(default_factory=dict)   # recording -> its drive's fitted timing {key: value} (timing.py;
+    #                                              only recordings read switch by switch)
 
     @property
     def bic(self) -> float:
@@ -301,8 +309,10 @@ def choose_holdout(dataset) -> list:
 class Problem:
     """Whitened residuals of training recordings against runs of the model: per recording
     every `decimate`-th sample of (measured - model - sensor offset) / sigma, then one
-    prior row per recording's log resistivity factor (delta / sigma_rep) and, with a
-    common level in the fit, the zero-sum pin of the factors."""
+    prior row per recording's log resistivity factor (delta / sigma_rep), with a common
+    level in the fit the zero-sum pin of the factors, and one prior row per timing
+    nuisance (timing.py: value / prior SD). The timing nuisances, `tz`, are one flat array
+    in recording order (keys[j] of recording j; None: every one as read)."""
 
     def __init__(self, recs, runner, sigma, sigma_rep, decimate, pin):
         self.recs, self.runner, self.sigma, self.sigma_rep = recs, runner, sigma, sigma_rep
@@ -310,23 +320,43 @@ class Problem:
         self.times = [sample_times(r.t) for r in recs]
         self.offs = np.concatenate([[0], np.cumsum([len(i) for i in self.idx])])
         self.n, self.R, self.pin = int(self.offs[-1]), len(recs), int(pin)
+        priors = [timing_nuisances(r) for r in recs]
+        self.keys = [list(q) for q in priors]
+        self.prior = np.array([v for q in priors for v in q.values()], float)
+        self.toffs = np.concatenate([[0], np.cumsum([len(k) for k in self.keys])]).astype(int)
+        self.T = int(self.toffs[-1])
 
-    def jobs(self, p: Parameters, deltas, rtol=FIT_RTOL) -> list:
+    def timing(self, tz) -> list:
+        """Each recording's timing nuisances {key: value} from the flat tz."""
+        if tz is None:
+            return [{} for _ in self.recs]
+        return [dict(zip(k, map(float, tz[a:b]))) for k, a, b in zip(self.keys, self.toffs[:-1], self.toffs[1:])]
+
+    def jobs(self, p: Parameters, deltas, rtol=FIT_RTOL, tz=None) -> list:
         """The runs of `runs` as jobs for a Runner (to batch several in one call)."""
         if p.rtol > rtol:
             p = p.replace(rtol=rtol)
-        return [(scaled_resistivity(p, math.exp(d)), r.protocol, r.load, t)
-                for d, r, t in zip(deltas, self.recs, self.times)]
+        out = []
+        for d, r, t, tm in zip(deltas, self.recs, self.times, self.timing(tz)):
+            protocol = r.protocol
+            if any(tm.values()):
+                try:
+                    protocol = retimed(r, **tm).protocol
+                except RecordingError as exc:
+                    protocol = str(exc)
+            out.append((scaled_resistivity(p, math.exp(d)), protocol, r.load, t))
+        return out
 
-    def runs(self, p: Parameters, deltas, rtol=FIT_RTOL) -> list:
-        """Each recording on the model p with its resistivity factor exp(delta): strokes at
-        every sample, or a message for a run that failed. The integrator's tolerance is at
-        most rtol."""
-        return self.runner(self.jobs(p, deltas, rtol))
+    def runs(self, p: Parameters, deltas, rtol=FIT_RTOL, tz=None) -> list:
+        """Each recording on the model p with its resistivity factor exp(delta) and its
+        drive's timing tz: strokes at every sample, or a message for a run that failed.
+        The integrator's tolerance is at most rtol."""
+        return self.runner(self.jobs(p, deltas, rtol, tz))
 
-    def residuals(self, xs, deltas) -> np.ndarray:
+    def residuals(self, xs, deltas, tz=None) -> np.ndarray:
         n, R = self.n, self.R
-        out = np.empty(n + R + self.pin)
+        out = np.empty(n + R + self.pin + self.T)
+        out[n + R + self.pin:] = 0.0 if tz is None else np.asarray(tz, float) / self.prior
         for j, (r, xm) in enumerate(zip(self.recs, xs)):
             sl = slice(self.offs[j], self.offs[j + 1])
             if isinstance(xm, str):
@@ -339,16 +369,12 @@ class Problem:
         return out
 
 
-def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0=None):
+def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0=None, t0=None):
     """Least squares over `recs`: the spec's globals (none: base fixed) and one delta per
     recording, each recording's offset read at rest (sensor_offset). Returns (the
     least_squares result, the Problem, the model's strokes at every sample at the
     solution)."""
     k, R = len(spec), len(recs)
-    x0 = np.concatenate([np.asarray(z0, float), np.zeros(R) if d0 is None else np.asarray(d0, float)])
-    lo = np.array([f.z_bounds()[0] for f in spec] + [-DELTA_BOUND] * R)
-    hi = np.array([f.z_bounds()[1] for f in spec] + [DELTA_BOUND] * R)
-    x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-9, lo), np.where(np.isfinite(hi), hi - 1e-9, hi))
     level = k > 0 and spec[0].is_level
     # with a common level in the fit, the recordings' factors are pinned to a zero sum:
     # the optimum has it anyway (a shift of the level against every factor leaves the
@@ -356,22 +382,28 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     # pin that shift is a long valley that only the prior curves, along which the
     # search crawled and stopped early (factors all at +0.12 to +0.3)
     prob = Problem(recs, runner, sigma, sigma_rep, decimate, level and R > 1)
-    n, pin, offs = prob.n, prob.pin, prob.offs
+    n, pin, offs, T = prob.n, prob.pin, prob.offs, prob.T
+    x0 = np.concatenate([np.asarray(z0, float), np.zeros(R) if d0 is None else np.asarray(d0, float),
+                         np.zeros(T) if t0 is None else np.asarray(t0, float)])
+    lo = np.array([f.z_bounds()[0] for f in spec] + [-DELTA_BOUND] * R + list(-TIMING_BOUND * prob.prior))
+    hi = np.array([f.z_bounds()[1] for f in spec] + [DELTA_BOUND] * R + list(TIMING_BOUND * prob.prior))
+    x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-9 * np.maximum(1, np.abs(lo)), lo),
+                 np.where(np.isfinite(hi), hi - 1e-9 * np.maximum(1, np.abs(hi)), hi))
     # the trust-region steps solved exactly (SVD of a dense Jacobian) while it is small:
     # the iterative solver (LSMR) resolved the directions the data pin and neglected the
     # flat ones the priors alone curve (a common level against every recording's factor),
     # so the search stopped short in them
-    dense = (n + R + pin) * (k + R) <= DENSE_MAX
+    dense = (n + R + pin + T) * (k + R + T) <= DENSE_MAX
 
     def simulate_all(x):
-        return prob.runs(apply(base, spec, x[:k]), x[k:])
+        return prob.runs(apply(base, spec, x[:k]), x[k:k + R], tz=x[k + R:] if T else None)
 
     def fun(x):
         xs = simulate_all(x)
         last_runs[x.tobytes()] = xs
         if progress:
             progress(f"{runner.runs} runs")
-        return prob.residuals(xs, x[k:])
+        return prob.residuals(xs, x[k:k + R], x[k + R:] if T else None)
 
     last, last_runs = {}, {}
 
@@ -404,14 +436,14 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
             if i == 0 and level and h > 0:
                 d_level = d
         if R:
-            hs = np.where(x[k:] + FD_STEP <= hi[k:], FD_STEP, -FD_STEP)
+            hs = np.where(x[k:k + R] + FD_STEP <= hi[k:k + R], FD_STEP, -FD_STEP)
             if d_level is not None and np.all(hs > 0):
                 # a recording's factor moves its samples exactly as the common level
                 # does (both scale its whole law by exp(h)): the level's runs serve
                 d = d_level * FD_STEP
             else:
                 xp = x.copy()
-                xp[k:] += hs
+                xp[k:k + R] += hs
                 d = fun(xp) - f0
                 last_runs.pop(xp.tobytes(), None)
             rec = np.repeat(np.arange(R), np.diff(offs))      # each sample's recording
@@ -422,8 +454,25 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
                 rows.append(np.full(R, n + R))
                 cols.append(k + np.arange(R))
                 vals.append(np.full(R, PIN / sigma_rep))
+        # the drives' timing: one batch per kind of nuisance (every recording's at once:
+        # disjoint rows), and each one's prior row
+        for name, h in TIMING_STEPS.items():
+            which = [(j, prob.toffs[j] + prob.keys[j].index(name)) for j in range(R) if name in prob.keys[j]]
+            if not which:
+                continue
+            xp = x.copy()
+            steps = {}
+            for j, i in which:
+                steps[j] = h if x[k + R + i] + h <= hi[k + R + i] else -h
+                xp[k + R + i] += steps[j]
+            d = fun(xp) - f0
+            last_runs.pop(xp.tobytes(), None)
+            for j, i in which:
+                rows += [np.arange(offs[j], offs[j + 1]), [n + R + pin + i]]
+                cols += [np.full(offs[j + 1] - offs[j], k + R + i), [k + R + i]]
+                vals += [d[offs[j]:offs[j + 1]] / steps[j], [1.0 / prob.prior[i]]]
         J = csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                       shape=(n + R + pin, k + R))
+                       shape=(n + R + pin + T, k + R + T))
         return J.toarray() if dense else J
 
     with np.errstate(all="ignore"):
@@ -433,6 +482,14 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     # the solution's runs are those of its last evaluation when the search ended there
     xs = last_runs.get(sol.x.tobytes())
     return sol, prob, xs if xs is not None else simulate_all(sol.x)
+
+
+def warm_timing(warm, recs):
+    """Start values of the recordings' timing nuisances (flat, Problem's order): an earlier
+    fit's (FitResult.timing), else None (as read)."""
+    if warm is None or not getattr(warm, "timing", None):
+        return None
+    return np.array([warm.timing.get(r.name, {}).get(key, 0.0) for r in recs for key in timing_nuisances(r)], float)
 
 
 def warm_deltas(warm, recs) -> list:
@@ -486,19 +543,21 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     k, R = len(spec), len(train)
     z_start = start(base, spec) if z0 is None else np.asarray(z0, float)
     d0 = None if warm is None else warm_deltas(warm, train)
-    sol, prob, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0)
-    n = prob.n
+    sol, prob, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0,
+                           warm_timing(warm, train))
+    n, T = prob.n, prob.T
     x = sol.x
     notes = []
     if not sol.success:
         notes.append(f"the least-squares search stopped before converging ({sol.message})")
     # covariance of the globals (noise units: the residuals are already / sigma)
     J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
-    lsq = {"J": J, "r": np.array(sol.fun), "deltas": np.array(x[k:]), "sigma_rep": sigma_rep, "decimate": decimate,
-           "pin": prob.pin}
-    J = J[:n + R]    # the zero-sum pin is a device of the search: the level's error keeps the repetitions' mean
+    lsq = {"J": J, "r": np.array(sol.fun), "deltas": np.array(x[k:k + R]), "tz": np.array(x[k + R:]),
+           "sigma_rep": sigma_rep, "decimate": decimate, "pin": prob.pin}
+    # the zero-sum pin is a device of the search: the level's error keeps the repetitions' mean
+    J = np.vstack([J[:n + R], J[n + R + prob.pin:]])
     r_fit = sol.fun[:n]
-    dof = max(n - (k + NUISANCES * R), 1)
+    dof = max(n - (k + NUISANCES * R + T), 1)
     s2 = max(1.0, float(np.sum(r_fit ** 2)) / dof)
     rho1 = float(np.clip(np.corrcoef(r_fit[:-1], r_fit[1:])[0, 1], 0.0, 0.99)) if n > 3 else 0.0
     cov = np.linalg.pinv(J.T @ J) * s2 * (1 + rho1) / (1 - rho1)
@@ -510,12 +569,15 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
         stderr[f.key] = v * se_z if f.log else se_z * f.scale
     fitted = apply(base, spec, x[:k])
     factors = {r.name: math.exp(x[k + j]) for j, r in enumerate(train)}
-    # held out: the physics fixed at the fit, only each recording's nuisance (its offset
-    # and resistivity factor, with the same prior) fitted
+    timing = {r.name: tm for r, tm in zip(train, prob.timing(x[k + R:])) if tm}
+    # held out: the physics fixed at the fit, only each recording's nuisances (its offset,
+    # resistivity factor and drive's timing, with the same priors) fitted
     if held:
         h0 = None if warm is None else warm_deltas(warm, held)
-        sol_h, _, xs_h = _solve(held, fitted, [], [], runner, sigma, sigma_rep, decimate, max_nfev, progress, h0)
+        sol_h, prob_h, xs_h = _solve(held, fitted, [], [], runner, sigma, sigma_rep, decimate, max_nfev, progress, h0,
+                                     warm_timing(warm, held))
         factors.update({r.name: math.exp(sol_h.x[j]) for j, r in enumerate(held)})
+        timing.update({r.name: tm for r, tm in zip(held, prob_h.timing(sol_h.x[len(held):])) if tm})
     else:
         xs_h = []
     simulated, offsets, shifts = {}, {}, {}
@@ -533,5 +595,5 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
                      offsets=offsets, time_shifts=shifts, simulated=simulated,
                      train_rmse=math.sqrt(sq["train"][0] / sq["train"][1]),
                      heldout_rmse=math.sqrt(sq["held"][0] / sq["held"][1]) if held else None, rss=rss, n=n,
-                     k=k + NUISANCES * R, cost=float(sol.cost), wall_time=time.perf_counter() - wall, runs=runner.runs,
-                     notes=notes, cov_z=cov[:k, :k].copy(), z=np.array(x[:k]), lsq=lsq)
+                     k=k + NUISANCES * R + T, cost=float(sol.cost), wall_time=time.perf_counter() - wall, runs=runner.runs,
+                     notes=notes, cov_z=cov[:k, :k].copy(), z=np.array(x[:k]), lsq=lsq, timing=timing)

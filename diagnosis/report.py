@@ -69,7 +69,7 @@ def to_json(D) -> dict:
         "unexplained": unexplained(D),
         "resolution": D.resolution,
         "resolution_first": D.raised,
-        "drive_timing": D.clock,
+        "drive_timing": D.final.timing or None,
         "headline": headline(D),
         "trends": D.trends,
         "candidates": D.rounds,
@@ -184,10 +184,10 @@ def conclusion(D) -> str:
     else:
         parts.append("no missing physics found")
     parts += raised_phrases(D.raised)
-    timed = [k for k, v in (D.clock or {}).items() if v["applied"]]
+    timed = D.final.timing
     if timed:
-        parts.append(f"the drive's timing was refitted from the stroke in {len(timed)} of {len(D.clock)} recordings "
-                     f"(switches read one by one off the voltage record: drive_timing)")
+        parts.append(f"the drive's timing was fitted with the model in {len(timed)} of {len(D.dataset.recordings)} "
+                     f"recordings (their resets read switch by switch off the voltage record: drive_timing)")
     r = D.resolution
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "

@@ -42,7 +42,7 @@ import math
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from .fit import FD_STEP, Problem, Runner
+from .fit import FD_STEP, Problem, Runner, warm_timing
 from .model import apply, start
 
 PROBE_LINEAR = 0.1   # probe step of a linear coordinate, in its scale (FreeParameter.scale)
@@ -91,20 +91,23 @@ class Screen:
         self.held = None
         # held out: residuals, and their derivatives in the current globals (FD_STEP in z)
         # and in each recording's factor (read off the level's, see fit._solve)
-        hp = hd = None
+        hp = hd = ht = None
         steps = []
+        # the drives' timing as the current fit has it (a nuisance of every fit: fit._solve)
+        self.tz = lsq.get("tz") if self.prob.T else None
         if current.heldout:
             held = [recs[nm] for nm in current.heldout]
             hp = Problem(held, runner, current.sigma, lsq["sigma_rep"], lsq["decimate"], False)
             hd = np.log([current.rho_factors[r.name] for r in held])
+            ht = warm_timing(current, held) if hp.T else None
             z = np.asarray(current.z, float)
             for i in range(len(current.spec)):
                 zp = z.copy()
                 zp[i] += FD_STEP
-                steps.append((hp, apply(current.base, current.spec, zp), hd))
+                steps.append((hp, apply(current.base, current.spec, zp), hd, ht))
         # every run of the set-up in one batch (the workers' load evens out over it)
-        res = self._many([(self.prob, current.params, lsq["deltas"])] + ([(hp, current.params, hd)] if hp else [])
-                         + steps)
+        res = self._many([(self.prob, current.params, lsq["deltas"], self.tz)]
+                         + ([(hp, current.params, hd, ht)] if hp else []) + steps)
         self.r0 = res[0]
         if hp is not None and self.r0 is not None and res[1] is not None:
             rh = res[1]
@@ -117,21 +120,21 @@ class Screen:
                 if level is not None:
                     Jh[sl, j] = level[sl]
                 Jh[hp.n + j, j] = 1.0 / lsq["sigma_rep"]
-            self.held = {"prob": hp, "deltas": hd, "r": rh, "G": G, "J": Jh}
+            self.held = {"prob": hp, "deltas": hd, "tz": ht, "r": rh, "G": G, "J": Jh}
 
     def _many(self, requests) -> list:
-        """Residuals of each (Problem, Parameters, deltas) request (None where a run
-        failed), every run in one batch."""
+        """Residuals of each (Problem, Parameters, deltas, timing) request (None where a
+        run failed), every run in one batch."""
         jobs, spans = [], []
-        for prob, p, deltas in requests:
-            js = prob.jobs(p, deltas, SCREEN_RTOL)
+        for prob, p, deltas, tz in requests:
+            js = prob.jobs(p, deltas, SCREEN_RTOL, tz)
             spans.append((len(jobs), len(jobs) + len(js)))
             jobs += js
         xs = self.runner(jobs)
         out = []
-        for (prob, p, deltas), (a, b) in zip(requests, spans):
+        for (prob, p, deltas, tz), (a, b) in zip(requests, spans):
             part = xs[a:b]
-            out.append(None if any(isinstance(x, str) for x in part) else prob.residuals(part, deltas))
+            out.append(None if any(isinstance(x, str) for x in part) else prob.residuals(part, deltas, tz))
         return out
 
     @property
@@ -150,9 +153,9 @@ class Screen:
             params_list = []
         requests = []
         for q, _ in params_list:
-            requests.append((self.prob, q, self.lsq["deltas"]))
+            requests.append((self.prob, q, self.lsq["deltas"], self.tz))
             if self.held is not None:
-                requests.append((self.held["prob"], q, self.held["deltas"]))
+                requests.append((self.held["prob"], q, self.held["deltas"], self.held["tz"]))
         res = self._many(requests) if requests else []
         per = 2 if self.held is not None else 1
         for i, (q, one_sided) in enumerate(params_list):

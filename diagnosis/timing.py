@@ -1,0 +1,45 @@
+"""The drive's timing as a nuisance of every fit. A recording's drive is read off its
+voltage record (recordings._interpret), to a fraction of a sample where a regular reset's
+many switches lie on one grid - but a reset of a few switches is read switch by switch,
+each within its sample, its generator runs on its own clock, not the data-acquisition
+system's (0.1 % apart is common), which a few switches do not show, and the hold starts
+when the generator's timer says. The zipping each switch starts moves at ~1 m/s: on the
+lab rig's unipolar drive (2 Hz, 1 s reset: 3 switches and the hold's) the switches were
+read up to 0.5 ms off, the model at the truth's own parameters missed a clean recording
+by 5.3 um RMS (216 um at a switch), and the rounds named inertia on a null dataset.
+
+Such a recording's timing is fitted with the physics in every fit (fit._solve), like its
+resistivity factor: the reset's `shift`, its generator's `clock` and the hold's start
+`hold_shift` (recordings.retimed), with priors from how each was read (nuisances()).
+Fitted once on the baseline instead, it took up what a missing entry does right after a
+switch (a mass's lag: inertia then left 11.9 um held out on a trial dataset against 4.3
+with the timing as read; a series resistance's charging delay: R_s 8.2e5 for 1e6)."""
+from __future__ import annotations
+
+import math
+
+from dfa_model.io.recordings import CLOCK_MIN_SWITCHES
+
+CLOCK_PRIOR = 1e-3     # prior SD of a drive's clock rate error (relative)
+STEPS = {"shift": 5e-5, "clock": 1e-4, "hold_shift": 5e-5}   # difference steps (s, relative, s)
+BOUND = 5.0            # each nuisance within this many prior SDs
+
+
+def nuisances(rec) -> dict:
+    """The timing nuisances of a recording and their prior SDs. Only a drive whose reset
+    was read switch by switch (too few switches for a grid) has any: the reset's shift and
+    the hold's start (each read from one crossing: uniform within its sample, SD
+    dt / sqrt(12)) and, with CLOCK_MIN_SWITCHES reset switches or more, its clock
+    (CLOCK_PRIOR). A reset on a regular grid has its timing pinned by its many switches (a
+    30 Hz reset of 1 s: 0.04 ms and 1e-4); its hold's start is left as read (freed, it
+    took up part of a series resistance's charging delay). A single switch's timing is the
+    recording's time shift (fit.align)."""
+    n = 0 if rec.switches is None else len(rec.switches)
+    if n < 2 or rec.gridded:
+        return {}
+    sd = rec.dt / math.sqrt(12.0)
+    out = {"shift": sd}
+    if n - 1 >= CLOCK_MIN_SWITCHES:
+        out["clock"] = CLOCK_PRIOR
+    out["hold_shift"] = sd
+    return out
