@@ -38,11 +38,12 @@ def test_retimed_moves_the_reset_and_the_hold_start():
         retimed(r, hold_shift=-0.3)
 
 
-def test_the_hold_start_is_never_on_the_resets_grid():
+def test_the_hold_start_joins_the_resets_grid_only_when_it_lies_on_it():
     """A 2 Hz unipolar reset's 3 switches and the hold's start (on the generator's own
     timer, off the wave's grid) all lay within 0.75 samples of one line, which was then
-    1.2e-3 off the wave's period: the hold's start is never on the line, and a 30 Hz
-    reset's grid leaves it as measured."""
+    1.2e-3 off the wave's period: the last switch joins the line only when it lies on the
+    line through the others (a bipolar reset ending on its own last switch), and a 30 Hz
+    reset's grid leaves an off-grid hold start as measured."""
     dt = 1e-3
     wave = np.array([0.2505, 0.5005, 0.7505])          # crossings of a 250.1 ms half period
     assert np.array_equal(_regular_switches(np.append(wave, 0.9995), dt), np.append(wave, 0.9995))
@@ -53,6 +54,10 @@ def test_the_hold_start_is_never_on_the_resets_grid():
     assert np.max(np.abs(read - true)) > 0.45 * dt           # each crossing alone: up to half a sample off
     assert np.max(np.abs(sw[:-1] - true)) < 0.2 * dt and np.median(np.abs(sw[:-1] - true)) < 0.1 * dt
     assert sw[-1] == 2.0004
+    # the wave's own last switch: on the line, timed with the others
+    on = np.floor((61 * 0.5 / 30.004) / dt) * dt + dt / 2
+    sw = _regular_switches(np.append(read, on), dt)
+    assert abs(sw[-1] - 61 * 0.5 / 30.004) < 0.2 * dt
 
 
 def test_the_drive_timing_is_recovered_from_the_stroke(tmp_path, monkeypatch):

@@ -690,24 +690,30 @@ def _regular_switches(t_sw: np.ndarray, dt: float) -> np.ndarray:
     record of an ideal square wave only brackets each switch within a sample (the
     interpolated crossing errs by up to dt/2), but a regular wave's switches lie on
     t0 + k P/2, and the sampling phase walks along the wave, so a straight-line fit
-    through all of them averages those errors out. The last switch starts the hold: it is
-    not the wave's (a generator's reset ends when its own timer says, off the wave's grid
-    by up to a clock error times the reset - 1 ms and more), and is never on the line: a
-    unipolar 2 Hz reset's three switches and the hold's, all within 0.75 dt of one line,
-    gave a line 1.2e-3 off the wave's period and its switches 0.6 ms off. Used when every
-    other switch lies within 0.75 dt of the line (the first one - the end of a pre-trigger
-    stretch at 0 V - may be off it); else the measured crossings stand. The stroke then
-    refines the timing of both (diagnosis/clock.py)."""
+    through all of them averages those errors out. Used when every switch but the last
+    lies within 0.75 dt of the line (the first one - the end of a pre-trigger stretch at
+    0 V - may be off it); else the measured crossings stand. The last switch - the last
+    of the wave, or the hold's start on the generator's own timer, off the wave's grid -
+    joins the line only when it lies within HOLD_ON_GRID dt of the line through the
+    others: a unipolar 2 Hz reset's 3 switches and the hold's start, all within 0.75 dt
+    of one line, gave a line 1.2e-3 off the wave's period and switches 0.6 ms off."""
     for first in (0, 1):
         n = len(t_sw) - first - 1
         if n < 4:
             continue
         k = np.arange(n)
         b, a = np.polyfit(k, t_sw[first:first + n], 1)
-        fit = a + b * k
-        if np.max(np.abs(t_sw[first:first + n] - fit)) <= 0.75 * dt:
-            return np.concatenate([t_sw[:first], fit, t_sw[first + n:]])
+        if np.max(np.abs(t_sw[first:first + n] - (a + b * k))) > 0.75 * dt:
+            continue
+        if abs(t_sw[-1] - (a + b * n)) <= HOLD_ON_GRID * dt:     # the wave's own last switch
+            k = np.arange(n + 1)
+            b, a = np.polyfit(k, t_sw[first:], 1)
+            return np.concatenate([t_sw[:first], a + b * k])
+        return np.concatenate([t_sw[:first], a + b * k, t_sw[first + n:]])
     return t_sw
+
+
+HOLD_ON_GRID = 0.6    # the last switch within this many samples of the others' line is on it
 
 
 def _interpret(rec: Recording) -> None:
