@@ -326,6 +326,14 @@ class Problem:
         self.toffs = np.concatenate([[0], np.cumsum([len(k) for k in self.keys])]).astype(int)
         self.T = int(self.toffs[-1])
 
+    def flat_timing(self, timing: dict | None):
+        """The flat tz of {recording: {key: value}} (FitResult.timing; a nuisance it lacks
+        at 0, as read), or None without it."""
+        if not timing or not self.T:
+            return None
+        return np.array([timing.get(r.name, {}).get(key, 0.0) for r, ks in zip(self.recs, self.keys) for key in ks],
+                        float)
+
     def timing(self, tz) -> list:
         """Each recording's timing nuisances {key: value} from the flat tz."""
         if tz is None:
@@ -370,8 +378,9 @@ class Problem:
 
 
 def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0=None, t0=None):
-    """Least squares over `recs`: the spec's globals (none: base fixed) and one delta per
-    recording, each recording's offset read at rest (sensor_offset). Returns (the
+    """Least squares over `recs`: the spec's globals (none: base fixed), one delta per
+    recording and each recording's drive timing (timing.py; started at t0, a
+    FitResult.timing, else as read), each recording's offset read at rest (sensor_offset). Returns (the
     least_squares result, the Problem, the model's strokes at every sample at the
     solution)."""
     k, R = len(spec), len(recs)
@@ -383,8 +392,9 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     # search crawled and stopped early (factors all at +0.12 to +0.3)
     prob = Problem(recs, runner, sigma, sigma_rep, decimate, level and R > 1)
     n, pin, offs, T = prob.n, prob.pin, prob.offs, prob.T
+    tz0 = prob.flat_timing(t0)
     x0 = np.concatenate([np.asarray(z0, float), np.zeros(R) if d0 is None else np.asarray(d0, float),
-                         np.zeros(T) if t0 is None else np.asarray(t0, float)])
+                         np.zeros(T) if tz0 is None else tz0])
     lo = np.array([f.z_bounds()[0] for f in spec] + [-DELTA_BOUND] * R + list(-TIMING_BOUND * prob.prior))
     hi = np.array([f.z_bounds()[1] for f in spec] + [DELTA_BOUND] * R + list(TIMING_BOUND * prob.prior))
     x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-9 * np.maximum(1, np.abs(lo)), lo),
@@ -484,14 +494,6 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     return sol, prob, xs if xs is not None else simulate_all(sol.x)
 
 
-def warm_timing(warm, recs):
-    """Start values of the recordings' timing nuisances (flat, Problem's order): an earlier
-    fit's (FitResult.timing), else None (as read)."""
-    if warm is None or not getattr(warm, "timing", None):
-        return None
-    return np.array([warm.timing.get(r.name, {}).get(key, 0.0) for r in recs for key in timing_nuisances(r)], float)
-
-
 def warm_deltas(warm, recs) -> list:
     """Start values of the recordings' log resistivity factors from an earlier fit: its
     factors less their mean over each condition. The deviations between repetitions are
@@ -544,7 +546,7 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     z_start = start(base, spec) if z0 is None else np.asarray(z0, float)
     d0 = None if warm is None else warm_deltas(warm, train)
     sol, prob, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0,
-                           warm_timing(warm, train))
+                           None if warm is None else warm.timing)
     n, T = prob.n, prob.T
     x = sol.x
     notes = []
@@ -575,7 +577,7 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     if held:
         h0 = None if warm is None else warm_deltas(warm, held)
         sol_h, prob_h, xs_h = _solve(held, fitted, [], [], runner, sigma, sigma_rep, decimate, max_nfev, progress, h0,
-                                     warm_timing(warm, held))
+                                     None if warm is None else warm.timing)
         factors.update({r.name: math.exp(sol_h.x[j]) for j, r in enumerate(held)})
         timing.update({r.name: tm for r, tm in zip(held, prob_h.timing(sol_h.x[len(held):])) if tm})
     else:

@@ -42,7 +42,7 @@ import math
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from .fit import FD_STEP, Problem, Runner, warm_timing
+from .fit import FD_STEP, Problem, Runner
 from .model import apply, start
 
 PROBE_LINEAR = 0.1   # probe step of a linear coordinate, in its scale (FreeParameter.scale)
@@ -99,7 +99,7 @@ class Screen:
             held = [recs[nm] for nm in current.heldout]
             hp = Problem(held, runner, current.sigma, lsq["sigma_rep"], lsq["decimate"], False)
             hd = np.log([current.rho_factors[r.name] for r in held])
-            ht = warm_timing(current, held) if hp.T else None
+            ht = hp.flat_timing(current.timing)
             z = np.asarray(current.z, float)
             for i in range(len(current.spec)):
                 zp = z.copy()

@@ -18,8 +18,7 @@ from __future__ import annotations
 
 import math
 
-from dfa_model.io.recordings import CLOCK_MIN_SWITCHES
-
+CLOCK_MIN_SWITCHES = 3   # a clock rate needs the reset's switches at three instants or more to show
 CLOCK_PRIOR = 1e-3     # prior SD of a drive's clock rate error (relative)
 STEPS = {"shift": 5e-5, "clock": 1e-4, "hold_shift": 5e-5}   # difference steps (s, relative, s)
 BOUND = 5.0            # each nuisance within this many prior SDs

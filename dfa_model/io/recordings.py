@@ -87,7 +87,7 @@ import math
 import os
 import struct
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -787,9 +787,6 @@ def _drive(rec: Recording) -> None:
     rec.protocol = Protocol(stages)
 
 
-CLOCK_MIN_SWITCHES = 3   # a clock rate needs the reset's switches at three instants or more to show
-
-
 def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: float = 0.0) -> Recording:
     """A copy of rec whose drive ran on other timing than read off its voltage record:
     the reset's switches (all but the last) `shift` seconds later and stretched by
@@ -799,11 +796,9 @@ def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: 
     1 kHz record of a few switches cannot show it (8 switches of a 2 Hz train drift by
     0.6 ms in all at 3.5e-4, less than a sample), nor a switch within its sample, and the
     zipping each switch starts moves at ~1 m/s (the diagnosis fits them from the stroke:
-    diagnosis/clock.py)."""
-    import copy
-    out = copy.copy(rec)
+    diagnosis/timing.py)."""
     if rec.switches is None or len(rec.switches) == 0:
-        return out
+        return replace(rec)
     sw = rec.switches.copy()
     if len(sw) > 1:
         sw[:-1] = sw[0] + shift + (sw[:-1] - sw[0]) * (1.0 + clock)
@@ -811,8 +806,7 @@ def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: 
     if not (np.all(np.diff(sw) > 0) and 0.0 < sw[0] and sw[-1] < rec.duration):
         raise RecordingError(f"{rec.name}: the drive's timing corrected by {shift:g} s, {clock:g} and {hold_shift:g} s "
                              f"puts its switches out of order or outside the recording; expected small corrections")
-    out.switches = sw
-    out.notes = list(rec.notes)
+    out = replace(rec, switches=sw, notes=list(rec.notes))
     _drive(out)
     return out
 
