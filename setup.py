@@ -23,7 +23,10 @@ class BuildKernels(build_ext):
             return super().build_extension(ext)
         target = Path(self.get_ext_fullpath(ext.name))
         target.parent.mkdir(parents=True, exist_ok=True)
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
+        # DFA_JIT: the builder never loads an installed build of the same sources (an editable
+        # install beside it) - it compiles these sources, whatever else is on the path
+        env = dict(os.environ, DFA_JIT="1",
+                   PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
         r = subprocess.run([sys.executable, "-m", "dfa_model.aot", "--out", str(target.parent)], cwd=HERE, env=env,
                            capture_output=True, text=True)
         if r.returncode != 0 or not target.exists():

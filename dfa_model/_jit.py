@@ -221,12 +221,14 @@ def jit_all():
 
     from numba import njit as numba_njit
     _cache_outside_installed_package()
+    pkg = __package__
+    # every kernel module first: one imported below would keep stand-ins without dispatchers
+    # (its names set to None: the AOT build crashed so when an older build served it)
+    modules = [sys.modules.get(f"{pkg}.{name}") or importlib.import_module(f".{name}", pkg) for name in KERNEL_MODULES]
     for k in _KERNELS:
         if k.dispatcher is None:
             k.dispatcher = numba_njit(**k.options)(k.py_func)
-    pkg = __package__
-    for name in KERNEL_MODULES:
-        mod = sys.modules.get(f"{pkg}.{name}") or importlib.import_module(f".{name}", pkg)
+    for mod in modules:
         for attr, value in list(vars(mod).items()):
             if isinstance(value, Kernel):
                 setattr(mod, attr, value.dispatcher)

@@ -38,26 +38,34 @@ def _types():
     return codes
 
 
-def build(out_dir: str | os.PathLike) -> Path:
-    """Compile the extension into out_dir; returns its path."""
+def exports() -> list:
+    """(export name, numba signature, Python function) of every kernel in _jit.EXPORTS."""
     import importlib
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")    # pycc's pending-deprecation notice
-        from numba.pycc import CC
     from . import _jit
     if _jit.AOT is not None:             # an older build serves this process: compile numba's
         _jit.jit_all()
     codes = _types()
-    cc = CC(_jit.AOT_MODULE)
-    cc.output_dir = str(out_dir)
-    cc.verbose = False
     where = {m.rpartition(".")[2]: m for m in _jit.KERNEL_MODULES}
+    out = []
     for qualname, (args, result) in _jit.EXPORTS.items():
         module, name = qualname.split(".")
         fn = getattr(importlib.import_module(f".{where[module]}", __package__), name)
-        sig = codes[result](*(codes[c] for c in args.split()))
-        cc.export(_jit.export_name(qualname), sig)(fn.py_func)
+        out.append((_jit.export_name(qualname), codes[result](*(codes[c] for c in args.split())), fn.py_func))
+    return out
+
+
+def build(out_dir: str | os.PathLike) -> Path:
+    """Compile the extension into out_dir; returns its path."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")    # pycc's pending-deprecation notice
+        from numba.pycc import CC
+    from . import _jit
+    cc = CC(_jit.AOT_MODULE)
+    cc.output_dir = str(out_dir)
+    cc.verbose = False
+    for name, sig, py_func in exports():
+        cc.export(name, sig)(py_func)
     # the sources this build is of (_jit compares it with the current ones)
     digest = _jit.source_digest()
     ns: dict = {}

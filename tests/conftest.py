@@ -37,7 +37,11 @@ def _quiet_physics_warnings():
 
 
 def pytest_terminal_summary(terminalreporter):
-    """The fuzz suite's counts (tests/fuzz_support.py), when it ran."""
+    """How the kernels ran (compiled at install, or by numba in each process: slower, and
+    a sign the build could not compile them), and the fuzz suite's counts
+    (tests/fuzz_support.py), when it ran."""
+    from dfa_model import _jit
+    terminalreporter.write_line(f"dfa_model kernels: {_jit.MODE} ({_jit.__file__})")
     try:
         from fuzz_support import COUNTS
     except ImportError:

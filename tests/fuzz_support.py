@@ -72,7 +72,7 @@ def _about_a_file(msg, files) -> bool:
     return False
 
 
-def check(rc, out, err, seconds, x_e=None, kind="cli", files=(), keys=SUMMARY_KEYS, info=False):
+def check(rc, out, err, seconds, x_e=None, kind="cli", files=(), keys=SUMMARY_KEYS, info=False, guard=True):
     """Assert the contract for one outcome and count it. Returns the JSON summary of a
     successful --json run (or None).
 
@@ -80,14 +80,17 @@ def check(rc, out, err, seconds, x_e=None, kind="cli", files=(), keys=SUMMARY_KE
     keys: the keys of the --json object that must be finite numbers (a NaN would be
     printed as null: json_safe); info: the command prints progress or a summary on stderr
     (reduce, design and hold --json, diagnose), so lines other than warnings and errors
-    are allowed there - but never an internal error or a traceback."""
+    are allowed there - but never an internal error or a traceback. guard: the runaway guard
+    applies (CASE_SECONDS); off for a fixed set-up step that is not a drawn case (its time is
+    the command's own, kernels compiled just in time included where the build could not
+    compile them ahead)."""
     COUNTS["cases"] += 1
     COUNTS[f"cases:{kind}"] += 1
     if os.environ.get("DFA_FUZZ_LOG"):     # every outcome, one line each (to read what the cases meet)
         with open(os.environ["DFA_FUZZ_LOG"], "a") as log:
             log.write(f"{kind}\t{rc}\t{seconds:.2f}\t{(err.strip().splitlines() or [''])[-1][:300]}\n")
     lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith(("sweep:", "\r"))]
-    assert seconds < CASE_SECONDS, f"took {seconds:.1f} s"
+    assert not guard or seconds < CASE_SECONDS, f"took {seconds:.1f} s"
     assert "Traceback" not in err and "Traceback" not in out, err[-2000:]
     assert rc in (0, 1, 2), (rc, err[-2000:])
     warn = [ln for ln in lines if ln.startswith("dfa: warning: ")]

@@ -87,7 +87,7 @@ def surrogate_file() -> Path:
         if rc == 0 and MODEL.is_file():     # cached before the checks: a failed check is not a second fit
             cached.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(MODEL, cached)
-        check(rc, out, err, secs, kind="reduce", info=True)
+        check(rc, out, err, secs, kind="reduce", info=True, guard=False)   # set-up, not a drawn case
         assert rc == 0 and MODEL.is_file(), err
     return MODEL
 
