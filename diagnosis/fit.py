@@ -258,7 +258,7 @@ class FitResult:
     z: np.ndarray | None = None       # the spec's globals in their fitted coordinates
     lsq: dict | None = field(default=None, repr=False)   # the search's end: Jacobian, residuals, factors (screen.py)
     timing: dict = field(default_factory=dict)   # recording -> its drive's fitted timing {key: value} (timing.py;
-    #                                              only recordings read switch by switch)
+    #                                              recordings with switches: timing.nuisances)
 
     @property
     def bic(self) -> float:

@@ -187,7 +187,8 @@ def conclusion(D) -> str:
     timed = D.final.timing
     if timed:
         parts.append(f"the drive's timing was fitted with the model in {len(timed)} of {len(D.dataset.recordings)} "
-                     f"recordings (their resets read switch by switch off the voltage record: drive_timing)")
+                     f"recordings (their resets' switches or hold starts, read off the voltage record to within a "
+                     f"sample: drive_timing)")
     r = D.resolution
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "
