@@ -9,8 +9,9 @@ read up to 0.5 ms off, the model at the truth's own parameters missed a clean re
 by 5.3 um RMS (216 um at a switch), and the rounds named inertia on a null dataset.
 
 Such a recording's timing (and a gridded reset's hold start) is fitted with the physics in
-every fit (fit._solve), like its resistivity factor: the reset's `shift`, its generator's `clock` and the hold's start
-`hold_shift` (recordings.retimed), with priors from how each was read (nuisances()).
+every fit (fit._solve), like its resistivity factor: the reset's `shift`, its generator's
+`clock` and the hold's start `hold_shift` (recordings.retimed), with priors from how each
+was read (nuisances()).
 Fitted once on the baseline instead, it took up what a missing entry does right after a
 switch (a mass's lag: inertia then left 11.9 um held out on a trial dataset against 4.3
 with the timing as read; a series resistance's charging delay: R_s 8.2e5 for 1e6)."""
@@ -25,9 +26,9 @@ BOUND = 5.0            # each nuisance within this many prior SDs
 
 
 def nuisances(rec) -> dict:
-    """The timing nuisances of a recording and their prior SDs. Only a drive whose reset
-    was read switch by switch (too few switches for a grid) has any: the reset's shift and
-    the hold's start (each read from one crossing: uniform within its sample, SD
+    """The timing nuisances of a recording and their prior SDs. A drive whose reset was
+    read switch by switch (too few switches for a grid) has the reset's shift and the
+    hold's start (each read from one crossing: uniform within its sample, SD
     dt / sqrt(12)) and, with CLOCK_MIN_SWITCHES reset switches or more, its clock
     (CLOCK_PRIOR). A reset on a regular grid has its timing pinned by its many switches (a
     30 Hz reset of 1 s: 0.04 ms and 1e-4), but not its hold's start: on the generator's

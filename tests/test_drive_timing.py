@@ -60,6 +60,20 @@ def test_the_hold_start_joins_the_resets_grid_only_when_it_lies_on_it():
     assert abs(sw[-1] - 61 * 0.5 / 30.004) < 0.2 * dt
 
 
+def _lab_unipolar(tmp_path, reset, hold, noise, seed):
+    """2 Hz unipolar pulses for `reset` s, then a hold: a truth at twice the fit's N = 41,
+    lab channels, no rest stretch; 6 kV at 3 and 5 N, two repetitions each. Returns the
+    dataset and the manifest's drawn recordings (their drives' true clock)."""
+    N = 41
+    nominal = preset("vshape-table1").replace(N=N, rho_l=3e12)
+    meas = Measurement(noise=noise, quantum=0.4e-6, offset=15e-6, voltage_gain=0.002, voltage_noise=10.0,
+                       force_noise=0.02, rho_spread=0.04)
+    generate_dataset(tmp_path / "data", nominal.replace(rho_l=2e12, N=2 * N), nominal, [(6000.0, 3.0), (6000.0, 5.0)],
+                     repetitions=2, reset=reset, hold=hold, reset_frequency=2.0, measurement=meas, seed=seed,
+                     pretrigger=0.0, drive="unipolar", manifest=tmp_path / "manifest.json")
+    return read_dataset(tmp_path / "data"), json.loads((tmp_path / "manifest.json").read_text())["recordings"]
+
+
 def test_the_drive_timing_is_recovered_from_the_stroke(tmp_path, monkeypatch):
     """Unipolar pulses (2 Hz, 1 s) then a hold, with the generator's clock off by its rig
     spread: the fit, with each recording's timing as a nuisance, brings the switches (as
@@ -68,15 +82,7 @@ def test_the_drive_timing_is_recovered_from_the_stroke(tmp_path, monkeypatch):
     from diagnosis.catalog import Context, baseline_spec
     from diagnosis.fit import fit
     warnings.simplefilter("ignore")
-    N = 41
-    nominal = preset("vshape-table1").replace(N=N, rho_l=3e12)
-    meas = Measurement(noise=2e-6, quantum=0.4e-6, offset=15e-6, voltage_gain=0.002, voltage_noise=10.0,
-                       force_noise=0.02, rho_spread=0.04)
-    generate_dataset(tmp_path / "data", nominal.replace(rho_l=2e12, N=2 * N), nominal, [(6000.0, 3.0), (6000.0, 5.0)],
-                     repetitions=2, reset=1.0, hold=3.0, reset_frequency=2.0, measurement=meas, seed=5,
-                     pretrigger=0.0, drive="unipolar", manifest=tmp_path / "manifest.json")
-    ds = read_dataset(tmp_path / "data")
-    drawn = json.loads((tmp_path / "manifest.json").read_text())["recordings"]
+    ds, drawn = _lab_unipolar(tmp_path, reset=1.0, hold=3.0, noise=2e-6, seed=5)
     spec = baseline_spec(ds.params, Context.of(ds))
     f1 = fit(ds, spec, holdout=[])
     assert set(f1.timing) == {r.name for r in ds.recordings}
@@ -110,17 +116,9 @@ def test_a_gridded_resets_hold_start_is_fitted_from_the_stroke(tmp_path, monkeyp
     from diagnosis.fit import fit
     from diagnosis.timing import nuisances
     warnings.simplefilter("ignore")
-    N = 41
-    nominal = preset("vshape-table1").replace(N=N, rho_l=3e12)
-    meas = Measurement(noise=1e-6, quantum=0.4e-6, offset=15e-6, voltage_gain=0.002, voltage_noise=10.0,
-                       force_noise=0.02, rho_spread=0.04)
-    generate_dataset(tmp_path / "data", nominal.replace(rho_l=2e12, N=2 * N), nominal, [(6000.0, 3.0), (6000.0, 5.0)],
-                     repetitions=2, reset=3.0, hold=2.0, reset_frequency=2.0, measurement=meas, seed=11,
-                     pretrigger=0.0, drive="unipolar", manifest=tmp_path / "manifest.json")
-    ds = read_dataset(tmp_path / "data")
+    ds, drawn = _lab_unipolar(tmp_path, reset=3.0, hold=2.0, noise=1e-6, seed=11)
     # the hold's start: 3 s on the generator's timer, or the wave's seventh pulse if it comes first
-    starts = [min(3.0, 6.0 / d["reset_frequency"]) for d in json.loads((tmp_path / "manifest.json").read_text())[
-        "recordings"]]
+    starts = [min(3.0, 6.0 / d["reset_frequency"]) for d in drawn]
     assert all(r.gridded for r in ds.recordings)
     assert all(set(nuisances(r)) == {"hold_shift"} for r in ds.recordings)
     spec = baseline_spec(ds.params, Context.of(ds))
