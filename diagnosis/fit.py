@@ -35,7 +35,7 @@ import math
 import os
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -259,6 +259,7 @@ class FitResult:
     lsq: dict | None = field(default=None, repr=False)   # the search's end: Jacobian, residuals, factors (screen.py)
     timing: dict = field(default_factory=dict)   # recording -> its drive's fitted timing {key: value} (timing.py;
     #                                              recordings with switches: timing.nuisances)
+    converged: bool = True            # the search met its tolerances (not stopped by max_nfev)
 
     @property
     def bic(self) -> float:
@@ -508,16 +509,22 @@ def warm_deltas(warm, recs) -> list:
 
 
 def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=None, sigma_rep=SIGMA_REP,
-        decimate=DECIMATE, z0=None, max_nfev=40, progress=None, warm=None) -> FitResult:
+        decimate=DECIMATE, z0=None, max_nfev=40, progress=None, warm=None, resume=None) -> FitResult:
     """Fit `spec` (list of FreeParameter) to the dataset's training recordings (module
     docstring). base: the parameters the spec is applied to (default the dataset's
     nominal actuator); holdout: conditions (V, F) to hold out (default choose_holdout);
     progress: a callable(str) told of each model evaluation; warm: a FitResult whose
     per-recording resistivity factors start this fit (a candidate on top of it), less
-    their mean over each condition (warm_deltas). BLAS runs on one thread meanwhile
-    (one_blas_thread)."""
+    their mean over each condition (warm_deltas); resume: a FitResult of this same spec
+    whose search stopped early (max_nfev) - the search goes on from exactly where it
+    stopped (its globals, factors and timing; base is its base), and the result counts
+    its runs and time too. BLAS runs on one thread meanwhile (one_blas_thread)."""
     with threadpool_limits(1):
-        return _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm)
+        if resume is None:
+            return _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm)
+        f = _fit(dataset, spec, resume.base, holdout, executor, sigma_rep, decimate, resume.z, max_nfev, progress,
+                 warm, resume)
+        return replace(f, runs=f.runs + resume.runs, wall_time=f.wall_time + resume.wall_time)
 
 
 def _condition_of(dataset, c) -> tuple:
@@ -531,7 +538,8 @@ def _condition_of(dataset, c) -> tuple:
     return (V, F)
 
 
-def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm) -> FitResult:
+def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm,
+         resume=None) -> FitResult:
     wall = time.perf_counter()
     base = base or dataset.params
     holdout = choose_holdout(dataset) if holdout is None else [_condition_of(dataset, c) for c in holdout]
@@ -545,8 +553,12 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     k, R = len(spec), len(train)
     z_start = start(base, spec) if z0 is None else np.asarray(z0, float)
     d0 = None if warm is None else warm_deltas(warm, train)
+    t0 = None if warm is None else warm.timing
+    if resume is not None:       # exactly where its search stopped, not less a condition's mean
+        d0 = [math.log(resume.rho_factors.get(r.name, 1.0)) for r in train]
+        t0 = resume.timing
     sol, prob, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0,
-                           None if warm is None else warm.timing)
+                           t0)
     n, T = prob.n, prob.T
     x = sol.x
     notes = []
@@ -576,8 +588,10 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     # resistivity factor and drive's timing, with the same priors) fitted
     if held:
         h0 = None if warm is None else warm_deltas(warm, held)
+        if resume is not None:
+            h0 = [math.log(resume.rho_factors.get(r.name, 1.0)) for r in held]
         sol_h, prob_h, xs_h = _solve(held, fitted, [], [], runner, sigma, sigma_rep, decimate, max_nfev, progress, h0,
-                                     None if warm is None else warm.timing)
+                                     t0)
         factors.update({r.name: math.exp(sol_h.x[j]) for j, r in enumerate(held)})
         timing.update({r.name: tm for r, tm in zip(held, prob_h.timing(sol_h.x[len(held):])) if tm})
     else:
@@ -598,4 +612,5 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
                      train_rmse=math.sqrt(sq["train"][0] / sq["train"][1]),
                      heldout_rmse=math.sqrt(sq["held"][0] / sq["held"][1]) if held else None, rss=rss, n=n,
                      k=k + NUISANCES * R + T, cost=float(sol.cost), wall_time=time.perf_counter() - wall, runs=runner.runs,
-                     notes=notes, cov_z=cov[:k, :k].copy(), z=np.array(x[:k]), lsq=lsq, timing=timing)
+                     notes=notes, cov_z=cov[:k, :k].copy(), z=np.array(x[:k]), lsq=lsq, timing=timing,
+                     converged=bool(sol.success))

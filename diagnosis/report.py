@@ -230,6 +230,8 @@ def tried(D) -> dict:
             if ev.get("fitted"):
                 row = {"fitted": True, "round": i + 1, "heldout_rmse": ev["heldout_rmse"],
                        "train_rmse": ev["train_rmse"], "delta_bic": ev["delta_bic"]}
+                if ev.get("stopped"):
+                    row["stopped"] = ev["stopped"]
                 old = out.get(key)
                 better = old is None or not old["fitted"] or (
                     (row["heldout_rmse"] if row["heldout_rmse"] is not None else row["train_rmse"])
@@ -523,6 +525,8 @@ def to_markdown(D, report: dict, plots: dict) -> str:
                 L.append(f"| {name} | {pred} | {why} | - | - | - |")
                 continue
             pars = ", ".join(f"{k} = {p['value']:.4g} +- {p['stderr']:.2g}" for k, p in ev["parameters"].items())
+            if ev.get("stopped"):
+                pars = f"{pars} ({ev['stopped']})"
             red = ev["heldout_reduction"]
             L.append(f"| {name} | {pred} | {ev['delta_bic']:+.1f} | {um(ev['heldout_rmse'])} | "
                      f"{'-' if red is None else f'{red * 100:+.1f} %'} | {pars} |")

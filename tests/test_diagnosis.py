@@ -170,10 +170,14 @@ def test_a_strong_screen_is_fitted_while_the_mismatch_is_large():
                                                  "heldout_ratio": 0.97},
         "inertia": {"predicted_delta_bic": -0.5 * BIC_MIN, "chi2_reduction": 20.0, "heldout_ratio": 0.99},
         "stiffness": {"predicted_delta_bic": 5.0, "chi2_reduction": 2.0, "heldout_ratio": 1.2},
+        # a large fall, but a small share of the best one's (under SCREEN_REL), predicting a held-out loss
+        "polarization_branch": {"predicted_delta_bic": -4.0 * BIC_MIN, "chi2_reduction": 40.0,
+                                "heldout_ratio": 1.03},
     }
     assert shortlist(screens) == ["series_resistance"]
     strong = shortlist(screens, strong=True)
     assert "field_dependent_resistivity (spline)" in strong and "series_resistance" in strong
+    assert "polarization_branch" in strong
     # a weak screen (under BIC_MIN) or one predicting no fall at all stays out either way
     assert "inertia" not in strong and "stiffness" not in strong
     # no verdict of "unexplained mismatch" before the strong screens were fitted: a branch
@@ -181,6 +185,91 @@ def test_a_strong_screen_is_fitted_while_the_mismatch_is_large():
     # fitted it cut the held-out error 6.72 -> 3.75 um (STRONG_ERROR had been 3)
     from diagnosis.diagnose import STRONG_ERROR, UNEXPLAINED
     assert STRONG_ERROR <= UNEXPLAINED
+
+
+def test_a_stopped_search_resumes_exactly_where_it_stopped(null):
+    """A fit stopped by max_nfev and resumed (fit(resume=...)) goes on from its own end:
+    its globals, its recordings' factors as they were (not less a condition's mean, as a
+    warm start takes them) and its timing. Resumed for one evaluation it cannot step and
+    returns the same cost; resumed to the budget it ends where one search with that
+    budget ends; its runs and time count the first part too."""
+    import importlib
+    dg = importlib.import_module("diagnosis.diagnose")
+    from diagnosis.catalog import PHYSICS
+    from diagnosis.fit import fit
+    D = null[0]
+    e = next(x for x in PHYSICS if x.key == "stiffness")
+    p = e.prepare(D.baseline.params, D.context)
+    spec = dg._spec(p, D.context, [e])
+    start = p.replace(**e.starts(p, D.context)[-1])
+    short = fit(D.dataset, spec, base=start, warm=D.baseline, max_nfev=3)
+    assert not short.converged
+    same = fit(D.dataset, spec, warm=D.baseline, max_nfev=1, resume=short)
+    assert same.cost == pytest.approx(short.cost, rel=1e-9)
+    assert same.runs > short.runs and same.wall_time > short.wall_time
+    on = fit(D.dataset, spec, warm=D.baseline, max_nfev=12, resume=short)
+    whole = fit(D.dataset, spec, base=start, warm=D.baseline, max_nfev=15)
+    assert on.cost < short.cost
+    assert on.cost == pytest.approx(whole.cost, rel=0.02)
+    assert on.values["k"] == pytest.approx(whole.values["k"], rel=0.05, abs=0.5)
+
+
+def test_several_starts_race_a_few_evaluations_and_the_leader_goes_on(monkeypatch):
+    """_multistart: with several starts each fit runs START_NFEV evaluations; the one of
+    least cost (not the first, not the last) is resumed to CANDIDATE_NFEV in all; a start
+    the model cannot run is an error in the evidence, not the end; a leader that already
+    converged is not resumed; a single start gets the whole budget at once. A form fitted
+    only because the mismatch is large (a judge) is probed even from one start and goes
+    on only if the judge passes it; _probe_passes asks a held-out fall of SCREEN_HELDOUT."""
+    from types import SimpleNamespace as NS
+
+    import importlib
+    dg = importlib.import_module("diagnosis.diagnose")
+    calls = []
+    costs = {1.0: 5.0, 2.0: 3.0, 3.0: 4.0}
+
+    def fake_fit(dataset, spec, base=None, max_nfev=None, resume=None, **kw):
+        calls.append((None if base is None else base["a"], max_nfev, resume))
+        if resume is not None:
+            return NS(cost=resume.cost / 2, converged=True, name="resumed")
+        if base["a"] == 9.0:
+            raise ValueError("the model does not run there")
+        return NS(cost=costs[base["a"]], converged=base.get("done", False), name=base["a"])
+
+    monkeypatch.setattr(dg, "fit", fake_fit)
+
+    class P(dict):
+        def replace(self, **kw):
+            return P({**self, **kw})
+    p = P(a=0.0)
+    race = lambda starts, judge=None: dg._multistart(None, [], p, starts, None, None, None, judge)  # noqa: E731
+    best, errors, stopped = race([{"a": 1.0}, {"a": 2.0}, {"a": 9.0}, {"a": 3.0}])
+    assert [c[1] for c in calls[:4]] == [dg.START_NFEV] * 4
+    assert calls[4][1] == dg.CANDIDATE_NFEV - dg.START_NFEV and calls[4][2].name == 2.0
+    assert best.name == "resumed" and best.cost == 1.5 and len(errors) == 1 and "does not run" in errors[0]
+    assert not stopped
+    calls.clear()
+    best, _, stopped = race([{"a": 1.0}, {"a": 2.0, "done": True}])
+    assert best.name == 2.0 and len(calls) == 2 and not stopped
+    calls.clear()
+    best, _, _ = race([{"a": 3.0}])
+    assert calls == [(3.0, dg.CANDIDATE_NFEV, None)] and best.name == 3.0
+    # judged: probed from its one start, stopped there or resumed as the judge says
+    calls.clear()
+    best, _, stopped = race([{"a": 3.0}], judge=lambda f: False)
+    assert calls == [(3.0, dg.START_NFEV, None)] and best.name == 3.0 and stopped
+    calls.clear()
+    best, _, stopped = race([{"a": 1.0}, {"a": 3.0}], judge=lambda f: f.name == 3.0)
+    assert [c[1] for c in calls] == [dg.START_NFEV, dg.START_NFEV, dg.CANDIDATE_NFEV - dg.START_NFEV]
+    assert best.name == "resumed" and not stopped
+    # the judge passes only the costlier start: that one goes on
+    calls.clear()
+    best, _, stopped = race([{"a": 2.0}, {"a": 1.0}], judge=lambda f: f.name == 1.0)
+    assert calls[-1][2].name == 1.0 and best.name == "resumed" and not stopped
+    ref = NS(heldout_rmse=1.0)
+    assert dg._probe_passes(NS(heldout_rmse=1.0 - dg.SCREEN_HELDOUT), ref)
+    assert not dg._probe_passes(NS(heldout_rmse=1.0 - 0.5 * dg.SCREEN_HELDOUT), ref)
+    assert dg._probe_passes(NS(heldout_rmse=None), ref)
 
 
 def test_the_data_choose_the_spline_knots(monkeypatch):
