@@ -195,13 +195,18 @@ def conclusion(D) -> str:
                      f"{r['measure']} error by {r['gain']:.0%} at N = {r['N']}, by {r['gain_fine']:.0%} at "
                      f"N = {r['N_fine']}): the data ask for a finer N, not this entry")
     elif r and r.get("refined"):
-        gone = [m for m in r.get("marginal", []) if m["dropped"]]
+        gone = [m for m in r.get("marginal", []) if m["dropped"] and not m.get("later")]
+        later = [m for m in r.get("marginal", []) if m["dropped"] and m.get("later")]
+        for m in later:
+            parts.append(f"{m['entry']} dropped: on top of the entries kept after it it cut the {r['measure']} error "
+                         f"by {m['gain_fine']:.0%} at N = {r['N_fine']}, short of acceptance: they explain what it "
+                         f"took up")
         if gone:
             cuts = ", ".join(f"{m['entry']} cut the {r['measure']} error by {m['gain']:.0%} on top of the rest at "
                              f"N = {r['N']}, by {m['gain_fine']:.0%} at N = {r['N_fine']}" for m in gone)
             parts.append(f"{', '.join(m['entry'] for m in gone)} dropped ({cuts}): it took up the model's "
                          f"discretization error, not physics; the final model is the rest at N = {r['N_fine']}")
-        else:
+        elif not later:
             parts.append(f"the final model is at N = {r['N_fine']} (N = {r['N']} left its own discretization error: "
                          f"{r['kept_rmse'] * 1e6:.3g} um {r['measure']} RMSE against "
                          f"{r['kept_fine_rmse'] * 1e6:.3g} um)")

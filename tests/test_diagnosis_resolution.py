@@ -236,13 +236,15 @@ def test_the_last_entry_is_checked_when_the_finer_baseline_fits_no_better(monkey
     base = preset("vshape-table1").replace(N=41)
     f0, before, current = res(6.21e-6, 0.0, 41), res(1.87e-6, -9000.0, 41), res(1.44e-6, -15000.0, 41)
     for without, dropped in ((1.41e-6, True), (1.90e-6, False)):
-        # finer baseline (worse: inconclusive), finer kept model, finer kept model without the law
+        # finer baseline (worse: inconclusive), finer kept model, finer kept model without the law,
+        # and (the law kept) without the branch, which holds (_earlier_entries_check)
         fits = iter([res(7.32e-6, 0.0, 81), res(1.40e-6, -16000.0, 81),
-                     res(without, -15990.0 if dropped else -9000.0, 81)])
+                     res(without, -15990.0 if dropped else -9000.0, 81), res(5.0e-6, -3000.0, 81)])
         monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
         kept, final, rec = dg._resolution_check(None, base, None, [branch, law], current, f0, None, None,
                                                 lambda s: None, before=before)
-        assert "inconclusive" in rec and [m["entry"] for m in rec["marginal"]] == [law.key]
+        assert "inconclusive" in rec
+        assert [m["entry"] for m in rec["marginal"]] == [law.key] + ([] if dropped else [branch.key])
         if dropped:
             assert kept == [branch] and rec["dropped_marginal"] == [law.key] and final.params.N == 81
         else:
@@ -253,6 +255,46 @@ def test_the_last_entry_is_checked_when_the_finer_baseline_fits_no_better(monkey
     kept, final, rec = dg._resolution_check(None, base, None, [branch], before, f0, None, None, lambda s: None,
                                             before=f0)
     assert kept == [branch] and final is before and "marginal" not in rec
+
+
+def test_an_entry_kept_before_others_must_hold_on_top_of_them(monkeypatch):
+    """Backward elimination (_earlier_entries_check): a spring kept first on a branch's
+    dataset (its BIC fall 13685 against the branch's 13218) was still named after the
+    branch was kept two rounds later. Each physics entry kept before the last is refitted
+    out at the finer N, and dropped when the kept model no longer passes acceptance
+    against the model without it; one that still does stays. Fits stubbed."""
+    import importlib
+    from types import SimpleNamespace as NS
+    dg = importlib.import_module("diagnosis.diagnose")
+    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
+    dropped_by = []
+    monkeypatch.setattr(dg, "_without", lambda drop, kept, fitted, base, ctx: (dropped_by.append(drop.key) or base, []))
+    spring = NS(kind="physics", key="stiffness", spec=lambda p, ctx: [])
+    eps = NS(kind="nominal", key="nominal:eps_r_l", spec=lambda p, ctx: [])
+    branch = NS(kind="physics", key="polarization_branch", spec=lambda p, ctx: [])
+
+    def res(err, bic, N):
+        return NS(heldout_rmse=err, train_rmse=err, bic=bic, sigma=2.5e-6,
+                  params=preset("vshape-table1").replace(N=N))
+
+    base = preset("vshape-table1").replace(N=21)
+    f0, before, current = res(7.43e-6, 0.0, 21), res(4.19e-6, -38000.0, 21), res(3.67e-6, -44000.0, 21)
+    for spring_without, dropped in ((2.85e-6, True), (3.60e-6, False)):
+        dropped_by.clear()
+        # finer baseline (worse: inconclusive), finer kept model, without the branch (last), without the spring
+        fits = iter([res(7.60e-6, 0.0, 41), res(2.81e-6, -60000.0, 41), res(4.40e-6, -40000.0, 41),
+                     res(spring_without, -59995.0 if dropped else -50000.0, 41)])
+        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        kept, final, rec = dg._resolution_check(None, base, None, [spring, eps, branch], current, f0, None, None,
+                                                lambda s: None, before=before)
+        assert dropped_by == [branch.key, spring.key]
+        assert [m["entry"] for m in rec["marginal"]] == [branch.key, spring.key]
+        assert [m.get("later", False) for m in rec["marginal"]] == [False, True]
+        if dropped:
+            assert kept == [eps, branch] and rec["dropped_marginal"] == [spring.key]
+            assert final.heldout_rmse == spring_without and rec["refined"]
+        else:
+            assert kept == [spring, eps, branch] and rec["dropped_marginal"] == [] and final is current
 
 
 def test_raised_steps_are_told_before_the_selection_and_after_an_entry():
