@@ -179,9 +179,9 @@ def shortlist(screens: dict, strong: bool = False) -> list:
     judge those the weak rules would not have fitted (_multistart, _probe_passes);
     acceptance still asks the held-out fall of HELDOUT_MIN. The share of the round's best
     still applies: fitting every strong form (a branch at 6 noises, 16 % of the best
-    one's BIC fall, was named so) took the issue-size combined case (a series resistance
-    and a branch, 20 noises, where every form's held-out error falls 5 % in a few
-    iterations) from 262 s to over 630 s."""
+    one's BIC fall, was named so) ran the issue-size combined case (a series resistance
+    and a branch at 20 noises) past 630 s - but without it that case also ran past 480 s
+    (262 s on 2026-11-24): the cause is not isolated yet."""
     passing = [k for k, s in screens.items() if s["predicted_delta_bic"] < 0
                and (s["heldout_ratio"] is None or s["heldout_ratio"] < 1 - SCREEN_HELDOUT
                     or (strong and s["predicted_delta_bic"] <= -BIC_MIN))]
