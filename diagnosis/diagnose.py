@@ -637,6 +637,16 @@ def _without(drop, kept, fitted, base, ctx):
     return apply(p, spec, [fp.to_z(fp.get(fitted)) for fp in spec]), spec
 
 
+def _fit_without(dataset, fb, ctx, e, kept, fk, holdout, executor):
+    """The kept model without entry `e` at the finer N (fb), refitted from fk (the kept
+    model's fit there; RES_NFEV evaluations), or None when it cannot run."""
+    try:
+        p, spec = _without(e, kept, fk.params, fb, ctx)
+        return fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=fk, max_nfev=RES_NFEV)
+    except Exception:
+        return None
+
+
 def _checks_last_entry(kept, before) -> bool:
     """Whether _last_entry_check applies: two or more physics entries kept, the last of
     them physics, and the fit it was added to known."""
@@ -697,10 +707,8 @@ def _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, exec
         return kept, fk, []
     e = kept[-1]
     say(f"resolution check: {e.key} on its own (the kept model without it at N = {fb.N})")
-    try:
-        p, spec = _without(e, kept, fk.params, fb, ctx)
-        fwf = fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=fk, max_nfev=RES_NFEV)
-    except Exception:        # the model without it cannot run: it stays
+    fwf = _fit_without(dataset, fb, ctx, e, kept, fk, holdout, executor)
+    if fwf is None:          # the model without it cannot run: it stays
         return kept, fk, []
     gain, gain_fine = 1.0 - _error(current) / _error(before), 1.0 - _error(fk) / _error(fwf)
     drop = not _accept(fk, fwf) or gain_fine < RES_SHRINK * gain
@@ -727,10 +735,8 @@ def _earlier_entries_check(dataset, fb, ctx, kept, fk, holdout, executor, say):
     for e in [x for x in kept[:-1] if x.kind == "physics"]:
         say(f"resolution check: {e.key} on top of the entries kept after it (the kept model without it at "
             f"N = {fb.N})")
-        try:
-            p, spec = _without(e, kept, fk.params, fb, ctx)
-            fwf = fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=fk, max_nfev=RES_NFEV)
-        except Exception:        # the model without it cannot run: it stays
+        fwf = _fit_without(dataset, fb, ctx, e, kept, fk, holdout, executor)
+        if fwf is None:          # the model without it cannot run: it stays
             continue
         drop = not _accept(fk, fwf)
         out.append({"entry": e.key, "gain_fine": 1.0 - _error(fk) / _error(fwf), "rmse_without": _error(fwf),

@@ -508,6 +508,14 @@ def warm_deltas(warm, recs) -> list:
     return [d[r.name] - float(np.mean(by[r.condition()])) for r in recs]
 
 
+def _start_deltas(warm, resume, recs) -> list | None:
+    """The recordings' log resistivity factors a search starts from: a resumed search's
+    exactly where it stopped (not less a condition's mean), else warm_deltas, else None."""
+    if resume is not None:
+        return [math.log(resume.rho_factors.get(r.name, 1.0)) for r in recs]
+    return None if warm is None else warm_deltas(warm, recs)
+
+
 def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=None, sigma_rep=SIGMA_REP,
         decimate=DECIMATE, z0=None, max_nfev=40, progress=None, warm=None, resume=None) -> FitResult:
     """Fit `spec` (list of FreeParameter) to the dataset's training recordings (module
@@ -552,11 +560,8 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     sigma = float(np.median([noise_level(r) for r in recs]))
     k, R = len(spec), len(train)
     z_start = start(base, spec) if z0 is None else np.asarray(z0, float)
-    d0 = None if warm is None else warm_deltas(warm, train)
-    t0 = None if warm is None else warm.timing
-    if resume is not None:       # exactly where its search stopped, not less a condition's mean
-        d0 = [math.log(resume.rho_factors.get(r.name, 1.0)) for r in train]
-        t0 = resume.timing
+    d0 = _start_deltas(warm, resume, train)
+    t0 = resume.timing if resume is not None else None if warm is None else warm.timing
     sol, prob, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0,
                            t0)
     n, T = prob.n, prob.T
@@ -587,9 +592,7 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     # held out: the physics fixed at the fit, only each recording's nuisances (its offset,
     # resistivity factor and drive's timing, with the same priors) fitted
     if held:
-        h0 = None if warm is None else warm_deltas(warm, held)
-        if resume is not None:
-            h0 = [math.log(resume.rho_factors.get(r.name, 1.0)) for r in held]
+        h0 = _start_deltas(warm, resume, held)
         sol_h, prob_h, xs_h = _solve(held, fitted, [], [], runner, sigma, sigma_rep, decimate, max_nfev, progress, h0,
                                      t0)
         factors.update({r.name: math.exp(sol_h.x[j]) for j, r in enumerate(held)})

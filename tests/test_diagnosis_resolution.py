@@ -6,6 +6,7 @@ noise, and a polarization branch takes up half of it - but its gain falls from 5
 from __future__ import annotations
 
 import json
+from functools import partial
 
 import pytest
 
@@ -15,6 +16,12 @@ from dfa_model import preset
 from dfa_model.io.recordings import read_dataset
 from dfa_model.io.synthetic import Measurement, generate_dataset
 from diagnosis.fit import InProcess
+
+
+def _stubbed_fit(err, bic, N, sigma=1e-6):
+    """A stand-in FitResult: its held-out and training error, BIC, noise and N."""
+    from types import SimpleNamespace as NS
+    return NS(heldout_rmse=err, train_rmse=err, bic=bic, sigma=sigma, params=preset("vshape-table1").replace(N=N))
 
 
 @pytest.fixture(scope="module")
@@ -57,8 +64,7 @@ def test_physics_that_holds_is_refitted_where_the_model_resolves_the_data(monkey
     import importlib
     dg = importlib.import_module("diagnosis.diagnose")
 
-    def res(err, bic, N):
-        return NS(heldout_rmse=err, train_rmse=err, bic=bic, sigma=1e-6, params=preset("vshape-table1").replace(N=N))
+    res = _stubbed_fit
 
     entry = NS(kind="physics", key="field_dependent_resistivity (spline)", spec=lambda p, ctx: [])
     monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
@@ -229,9 +235,7 @@ def test_the_last_entry_is_checked_when_the_finer_baseline_fits_no_better(monkey
     branch = NS(kind="physics", key="polarization_branch", spec=lambda p, ctx: [])
     law = NS(kind="physics", key="field_dependent_resistivity (Eq. 21)", spec=lambda p, ctx: [])
 
-    def res(err, bic, N):
-        return NS(heldout_rmse=err, train_rmse=err, bic=bic, sigma=1.26e-6,
-                  params=preset("vshape-table1").replace(N=N))
+    res = partial(_stubbed_fit, sigma=1.26e-6)
 
     base = preset("vshape-table1").replace(N=41)
     f0, before, current = res(6.21e-6, 0.0, 41), res(1.87e-6, -9000.0, 41), res(1.44e-6, -15000.0, 41)
@@ -273,9 +277,7 @@ def test_an_entry_kept_before_others_must_hold_on_top_of_them(monkeypatch):
     eps = NS(kind="nominal", key="nominal:eps_r_l", spec=lambda p, ctx: [])
     branch = NS(kind="physics", key="polarization_branch", spec=lambda p, ctx: [])
 
-    def res(err, bic, N):
-        return NS(heldout_rmse=err, train_rmse=err, bic=bic, sigma=2.5e-6,
-                  params=preset("vshape-table1").replace(N=N))
+    res = partial(_stubbed_fit, sigma=2.5e-6)
 
     base = preset("vshape-table1").replace(N=21)
     f0, before, current = res(7.43e-6, 0.0, 21), res(4.19e-6, -38000.0, 21), res(3.67e-6, -44000.0, 21)
