@@ -215,6 +215,14 @@ def _near_noise(f) -> bool:
     return _error(f) <= SKIP_FLOOR * f.sigma
 
 
+def _beyond_reach(f) -> bool:
+    """Whether no candidate on top of fit f could pass acceptance: its held-out error is
+    within 1 / (1 - HELDOUT_MIN) sensor noises, and no model's held-out error falls below
+    the noise (a combined case's third round, at 1.03 noises, screened every entry for
+    40 s of 583 and fitted none)."""
+    return f.heldout_rmse is not None and (1 - HELDOUT_MIN) * f.heldout_rmse <= f.sigma
+
+
 def _accept(f, ref) -> bool:
     if f.bic > ref.bic - BIC_MIN:
         return False
@@ -245,6 +253,10 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         while True:
             kept, current, before = [], f0, None
             for rnd in range(MAX_ROUNDS):
+                if rnd and _beyond_reach(current):
+                    say(f"round {rnd + 1} not run: the held-out error ({_um(current.heldout_rmse)}) is within "
+                        f"{1 / (1 - HELDOUT_MIN):.2f} sensor noises, which no candidate can cut by {HELDOUT_MIN:.0%}")
+                    break
                 ev, fits, screens, prepared = {}, {}, {}, {}
                 screen = Screen(dataset, current, executor)
                 for e in pool:
@@ -352,11 +364,14 @@ def _multistart(dataset, spec, p, starts, holdout, executor, warm, judge=None):
     none. Returns (the best fit or None, the errors of the starts the model could not
     run, whether the judge stopped it)."""
     probe = START_NFEV if len(starts) > 1 or judge is not None else CANDIDATE_NFEV
+    # racing starts are compared by their cost alone: their held-out recordings are fitted
+    # only by the leader's search (a branch's two starts behind a series resistance: 2 x 24 s)
+    held_out = judge is not None or probe == CANDIDATE_NFEV
     ends, errors = [], []
     for st in starts:
         try:
             ends.append(fit(dataset, spec, base=p.replace(**st) if st else p, holdout=holdout, executor=executor,
-                            warm=warm, max_nfev=probe))
+                            warm=warm, max_nfev=probe, held_out=held_out))
         except Exception as exc:   # a candidate the model cannot run: evidence says why
             errors.append(f"{type(exc).__name__}: {exc}")
     if not ends:
@@ -369,13 +384,15 @@ def _multistart(dataset, spec, p, starts, holdout, executor, warm, judge=None):
         if not passed:
             return best, errors, True
         best = min(passed, key=lambda f: f.cost)
-    if probe == CANDIDATE_NFEV or best.converged:
+    if probe == CANDIDATE_NFEV or (best.converged and held_out):
         return best, errors, False
     try:
         best = fit(dataset, spec, holdout=holdout, executor=executor, warm=warm, max_nfev=CANDIDATE_NFEV - probe,
                    resume=best)
-    except Exception as exc:   # the probe's end stands
+    except Exception as exc:   # the probe's end stands, if its held-out recordings were fitted
         errors.append(f"{type(exc).__name__}: {exc}")
+        if not held_out:
+            return None, errors, False
     return best, errors, False
 
 
@@ -509,8 +526,9 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
         Nf = fine_N(base.N)
         fb, pk = base.replace(N=Nf), current.params.replace(N=Nf)
         try:
-            fk = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
-                     max_nfev=RES_NFEV)
+            spec = _spec(pk, ctx, kept)
+            fk = fit(dataset, spec, base=pk, holdout=holdout, executor=executor, warm=current, max_nfev=RES_NFEV,
+                     chord=current)
             if not _error(fk) < RAISE_GAIN * _error(current):
                 return base, f0, current, before, steps, (current, fk)
             f0n = _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine)
@@ -519,8 +537,9 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
                 bn = f0n
             elif before is not None:
                 pb = before.params.replace(N=Nf)
-                bn = fit(dataset, _spec(pb, ctx, kept[:-1]), base=pb, holdout=holdout, executor=executor,
-                         warm=before, max_nfev=RES_NFEV)
+                spec = _spec(pb, ctx, kept[:-1])
+                bn = fit(dataset, spec, base=pb, holdout=holdout, executor=executor, warm=before, max_nfev=RES_NFEV,
+                         chord=before)
         except Exception:          # the finer model cannot run: stay (the check after selection says so)
             break
         say(f"resolution first: {' + '.join(e.key for e in kept)} at N = {Nf} fits better "
@@ -642,7 +661,8 @@ def _fit_without(dataset, fb, ctx, e, kept, fk, holdout, executor):
     model's fit there; RES_NFEV evaluations), or None when it cannot run."""
     try:
         p, spec = _without(e, kept, fk.params, fb, ctx)
-        return fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=fk, max_nfev=RES_NFEV)
+        return fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=fk, max_nfev=RES_NFEV,
+                   chord=fk)
     except Exception:
         return None
 
@@ -676,8 +696,9 @@ def _fine_kept(dataset, pk, ctx, kept, current, holdout, executor, tried=None):
     (_raise_kept), is used when its fit is `current` and its refit on pk's N."""
     if tried is not None and tried[0] is current and tried[1].params.N == pk.N:
         return tried[1]
-    return fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
-               max_nfev=RES_NFEV)
+    spec = _spec(pk, ctx, kept)
+    return fit(dataset, spec, base=pk, holdout=holdout, executor=executor, warm=current, max_nfev=RES_NFEV,
+               chord=current)
 
 
 def _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine=None):
@@ -686,7 +707,7 @@ def _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine=None):
     if fine is not None and fine.params.N == fb.N:
         return fine
     return fit(dataset, baseline_spec(fb, ctx), base=fb, holdout=holdout, executor=executor, warm=f0,
-               max_nfev=RES_NFEV)
+               max_nfev=RES_NFEV, chord=f0)
 
 
 def _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, executor, say):

@@ -210,13 +210,54 @@ def test_a_stopped_search_resumes_exactly_where_it_stopped(null):
     assert on.values["k"] == pytest.approx(whole.values["k"], rel=0.05, abs=0.5)
 
 
+def test_a_refit_near_a_fit_keeps_its_jacobian(null):
+    """fit(chord=f): a refit that starts near f's end (twice the elements; the model
+    without an entry) keeps f's training Jacobian (and, refitting f's own spec, its
+    held-out one) at every step instead of differencing again, then polishes with
+    differences (POLISH_NFEV). It must end where the differenced refit ends - here data
+    made at the fit's N, refitted at twice it, where the drive's timing moves by a
+    millisecond and the chord alone stopped 0.6 % of the cost short (fewer runs are the
+    benchmark's matter); a spec with a parameter f lacks, or another split of the
+    recordings, falls back to differences."""
+    import importlib
+    dg = importlib.import_module("diagnosis.diagnose")
+    F = importlib.import_module("diagnosis.fit")
+    from diagnosis.catalog import PHYSICS, baseline_spec
+    D = null[0]
+    f0, ctx = D.baseline, D.context
+    fb = f0.params.replace(N=dg.fine_N(f0.params.N))
+    spec = baseline_spec(fb, ctx)
+    fd = F.fit(D.dataset, spec, base=fb, warm=f0, max_nfev=dg.RES_NFEV)
+    ch = F.fit(D.dataset, spec, base=fb, warm=f0, max_nfev=dg.RES_NFEV, chord=f0)
+    assert ch.cost == pytest.approx(fd.cost, rel=2e-3)
+    assert abs(ch.values["rho_l"] - fd.values["rho_l"]) < 0.2 * fd.stderr["rho_l"]
+    assert ch.heldout_rmse == pytest.approx(fd.heldout_rmse, rel=0.01)
+    assert ch.lsq["J_h"].shape[0] > 0
+    # the kept model without an entry: a stiffness fitted, then refitted without it from its end
+    e = next(x for x in PHYSICS if x.key == "stiffness")
+    p = e.prepare(f0.params, ctx)
+    fk = F.fit(D.dataset, dg._spec(p, ctx, [e]), base=p.replace(k=50.0), warm=f0, max_nfev=8)
+    pw, spec_w = dg._without(e, [e], fk.params, f0.params, ctx)
+    assert F._chord_jacobian(fk, spec_w).shape == (fk.lsq["J"].shape[0], fk.lsq["J"].shape[1] - 1)
+    assert F._chord_jacobian(f0, dg._spec(p, ctx, [e])) is None      # f0 has no k: differences
+    back = F.fit(D.dataset, spec_w, base=pw, warm=fk, max_nfev=dg.RES_NFEV, chord=fk)
+    assert back.cost == pytest.approx(f0.cost, rel=2e-3)
+    assert back.heldout_rmse == pytest.approx(f0.heldout_rmse, rel=0.01)
+    # another split of the recordings: the chord does not apply, the refit differences
+    other = F.fit(D.dataset, spec, base=fb, warm=f0, max_nfev=dg.RES_NFEV, chord=f0, holdout=[])
+    assert other.heldout_rmse is None
+
+
 def test_several_starts_race_a_few_evaluations_and_the_leader_goes_on(monkeypatch):
     """_multistart: with several starts each fit runs START_NFEV evaluations; the one of
     least cost (not the first, not the last) is resumed to CANDIDATE_NFEV in all; a start
-    the model cannot run is an error in the evidence, not the end; a leader that already
-    converged is not resumed; a single start gets the whole budget at once. A form fitted
-    only because the mismatch is large (a judge) is probed even from one start and goes
-    on only if the judge passes it; _probe_passes asks a held-out fall of SCREEN_HELDOUT."""
+    the model cannot run is an error in the evidence, not the end; racing starts skip the
+    held-out recordings (compared by cost), so even a leader that converged goes on for
+    its held-out fit, and a leader whose resumed search fails is no fit at all (never one
+    without held-out evidence); a single start gets the whole budget at once, held out
+    included. A form fitted only because the mismatch is large (a judge) is probed even
+    from one start, with its held-out recordings, and goes on only if the judge passes it;
+    _probe_passes asks a held-out fall of SCREEN_HELDOUT."""
     from types import SimpleNamespace as NS
 
     import importlib
@@ -224,9 +265,14 @@ def test_several_starts_race_a_few_evaluations_and_the_leader_goes_on(monkeypatc
     calls = []
     costs = {1.0: 5.0, 2.0: 3.0, 3.0: 4.0}
 
-    def fake_fit(dataset, spec, base=None, max_nfev=None, resume=None, **kw):
+    held = []
+
+    def fake_fit(dataset, spec, base=None, max_nfev=None, resume=None, held_out=True, **kw):
         calls.append((None if base is None else base["a"], max_nfev, resume))
+        held.append(held_out)
         if resume is not None:
+            if resume.name == 4.0:
+                raise ValueError("the resumed search failed")
             return NS(cost=resume.cost / 2, converged=True, name="resumed")
         if base["a"] == 9.0:
             raise ValueError("the model does not run there")
@@ -243,17 +289,23 @@ def test_several_starts_race_a_few_evaluations_and_the_leader_goes_on(monkeypatc
     assert [c[1] for c in calls[:4]] == [dg.START_NFEV] * 4
     assert calls[4][1] == dg.CANDIDATE_NFEV - dg.START_NFEV and calls[4][2].name == 2.0
     assert best.name == "resumed" and best.cost == 1.5 and len(errors) == 1 and "does not run" in errors[0]
-    assert not stopped
+    assert not stopped and held == [False] * 4 + [True]
     calls.clear()
+    held.clear()
     best, _, stopped = race([{"a": 1.0}, {"a": 2.0, "done": True}])
-    assert best.name == 2.0 and len(calls) == 2 and not stopped
+    assert best.name == "resumed" and calls[-1][2].name == 2.0 and held == [False, False, True] and not stopped
+    costs[4.0] = 1.0
+    best, errors, _ = race([{"a": 1.0}, {"a": 4.0}])
+    assert best is None and "failed" in errors[-1]
     calls.clear()
+    held.clear()
     best, _, _ = race([{"a": 3.0}])
-    assert calls == [(3.0, dg.CANDIDATE_NFEV, None)] and best.name == 3.0
+    assert calls == [(3.0, dg.CANDIDATE_NFEV, None)] and best.name == 3.0 and held == [True]
     # judged: probed from its one start, stopped there or resumed as the judge says
     calls.clear()
+    held.clear()
     best, _, stopped = race([{"a": 3.0}], judge=lambda f: False)
-    assert calls == [(3.0, dg.START_NFEV, None)] and best.name == 3.0 and stopped
+    assert calls == [(3.0, dg.START_NFEV, None)] and best.name == 3.0 and stopped and held == [True]
     calls.clear()
     best, _, stopped = race([{"a": 1.0}, {"a": 3.0}], judge=lambda f: f.name == 3.0)
     assert [c[1] for c in calls] == [dg.START_NFEV, dg.START_NFEV, dg.CANDIDATE_NFEV - dg.START_NFEV]
