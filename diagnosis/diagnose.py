@@ -526,9 +526,8 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
         Nf = fine_N(base.N)
         fb, pk = base.replace(N=Nf), current.params.replace(N=Nf)
         try:
-            spec = _spec(pk, ctx, kept)
-            fk = fit(dataset, spec, base=pk, holdout=holdout, executor=executor, warm=current, max_nfev=RES_NFEV,
-                     chord=current)
+            fk = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
+                     max_nfev=RES_NFEV)
             if not _error(fk) < RAISE_GAIN * _error(current):
                 return base, f0, current, before, steps, (current, fk)
             f0n = _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine)
@@ -537,9 +536,8 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
                 bn = f0n
             elif before is not None:
                 pb = before.params.replace(N=Nf)
-                spec = _spec(pb, ctx, kept[:-1])
-                bn = fit(dataset, spec, base=pb, holdout=holdout, executor=executor, warm=before, max_nfev=RES_NFEV,
-                         chord=before)
+                bn = fit(dataset, _spec(pb, ctx, kept[:-1]), base=pb, holdout=holdout, executor=executor,
+                         warm=before, max_nfev=RES_NFEV)
         except Exception:          # the finer model cannot run: stay (the check after selection says so)
             break
         say(f"resolution first: {' + '.join(e.key for e in kept)} at N = {Nf} fits better "
@@ -661,8 +659,7 @@ def _fit_without(dataset, fb, ctx, e, kept, fk, holdout, executor):
     model's fit there; RES_NFEV evaluations), or None when it cannot run."""
     try:
         p, spec = _without(e, kept, fk.params, fb, ctx)
-        return fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=fk, max_nfev=RES_NFEV,
-                   chord=fk)
+        return fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=fk, max_nfev=RES_NFEV)
     except Exception:
         return None
 
@@ -696,9 +693,8 @@ def _fine_kept(dataset, pk, ctx, kept, current, holdout, executor, tried=None):
     (_raise_kept), is used when its fit is `current` and its refit on pk's N."""
     if tried is not None and tried[0] is current and tried[1].params.N == pk.N:
         return tried[1]
-    spec = _spec(pk, ctx, kept)
-    return fit(dataset, spec, base=pk, holdout=holdout, executor=executor, warm=current, max_nfev=RES_NFEV,
-               chord=current)
+    return fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
+               max_nfev=RES_NFEV)
 
 
 def _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine=None):
@@ -707,7 +703,7 @@ def _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine=None):
     if fine is not None and fine.params.N == fb.N:
         return fine
     return fit(dataset, baseline_spec(fb, ctx), base=fb, holdout=holdout, executor=executor, warm=f0,
-               max_nfev=RES_NFEV, chord=f0)
+               max_nfev=RES_NFEV)
 
 
 def _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, executor, say):

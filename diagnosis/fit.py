@@ -72,7 +72,6 @@ DENSE_MAX = 4_000_000  # Jacobian entries up to which it is dense (32 MB)
 # to nothing) and candidates' BIC differences scattered by tens. At 1e-5: ~1, for
 # twice the steps
 FIT_RTOL = 1e-5
-POLISH_NFEV = 4      # evaluations of differences after a chord search (_solve's jac0)
 FD_STEP = 0.02       # finite-difference step in the fitted coordinates (log: 2 %)
 VERBOSE = int(os.environ.get("DFA_FIT_VERBOSE", "0"))
 FAILED = 1e3         # residual (in noise units) of a sample whose run failed: the step is rejected
@@ -379,15 +378,12 @@ class Problem:
         return out
 
 
-def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0=None, t0=None,
-           jac0=None):
+def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0=None, t0=None):
     """Least squares over `recs`: the spec's globals (none: base fixed), one delta per
     recording and each recording's drive timing (timing.py; started at t0, a
     FitResult.timing, else as read), each recording's offset read at rest (sensor_offset). Returns (the
     least_squares result, the Problem, the model's strokes at every sample at the
-    solution). `jac0`: a Jacobian of this problem's shape that every step uses instead of
-    forward differences (the chord method: fit's `chord`); None, or another shape:
-    forward differences."""
+    solution)."""
     k, R = len(spec), len(recs)
     level = k > 0 and spec[0].is_level
     # with a common level in the fit, the recordings' factors are pinned to a zero sum:
@@ -409,10 +405,6 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     # flat ones the priors alone curve (a common level against every recording's factor),
     # so the search stopped short in them
     dense = (n + R + pin + T) * (k + R + T) <= DENSE_MAX
-    if jac0 is not None and np.shape(jac0) != (n + R + pin + T, k + R + T):
-        jac0 = None
-    if jac0 is not None:
-        jac0 = np.asarray(jac0, float) if dense else csr_matrix(jac0)
 
     def simulate_all(x):
         return prob.runs(apply(base, spec, x[:k]), x[k:k + R], tz=x[k + R:] if T else None)
@@ -448,8 +440,6 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
         return out
 
     def jac(x):
-        if jac0 is not None:
-            return jac0.copy()
         # forward differences of FD_STEP in z (an adaptive solver's output is rough on
         # the scale of its tolerance: smaller steps measure that, not the derivative);
         # one set of runs per global, one for all deltas at once (disjoint rows) and one
@@ -510,36 +500,13 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
                        shape=(n + R + pin + T, k + R + T))
         return J.toarray() if dense else J
 
-    def search(x_start, nfev):
-        with np.errstate(all="ignore"):
-            return least_squares(fun_cached, x_start, jac=jac, bounds=(lo, hi), x_scale="jac", ftol=1e-6, xtol=XTOL,
-                                 gtol=1e-8, max_nfev=nfev, method="trf", tr_solver="exact" if dense else "lsmr",
-                                 verbose=VERBOSE)
-
-    sol = search(x0, max_nfev)
-    if jac0 is not None:
-        # then differences from the chord's end (POLISH_NFEV evaluations): its fixed point is
-        # where the kept Jacobian, not the true one, sees no descent - on a refit at twice
-        # the elements whose drive timing moved by a millisecond (a transient's nonlinear
-        # shift) the chord stopped 0.6 % of the cost short; the search's end also gives
-        # the covariance its true Jacobian
-        jac0 = None
-        polished = search(np.clip(sol.x, lo, hi), POLISH_NFEV)
-        polished.nfev += sol.nfev
-        sol = polished
+    with np.errstate(all="ignore"):
+        sol = least_squares(fun_cached, x0, jac=jac, bounds=(lo, hi), x_scale="jac", ftol=1e-6, xtol=XTOL,
+                            gtol=1e-8, max_nfev=max_nfev, method="trf", tr_solver="exact" if dense else "lsmr",
+                            verbose=VERBOSE)
     # the solution's runs are those of its last evaluation when the search ended there
     xs = last_runs.get(sol.x.tobytes())
     return sol, prob, xs if xs is not None else simulate_all(sol.x)
-
-
-def _chord_jacobian(f, spec) -> np.ndarray | None:
-    """f's training search's last Jacobian, its columns for spec's globals (a subset of
-    f's: the kept model without an entry) and every nuisance; None when one of spec's is
-    not among f's (the same key, coordinates and bounds)."""
-    if f.lsq is None or any(fp not in f.spec for fp in spec):
-        return None
-    J = f.lsq["J"]
-    return J[:, [f.spec.index(fp) for fp in spec] + list(range(len(f.spec), J.shape[1]))]
 
 
 def warm_deltas(warm, recs) -> list:
@@ -564,7 +531,7 @@ def _start_deltas(warm, resume, recs) -> list | None:
 
 
 def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=None, sigma_rep=SIGMA_REP,
-        decimate=DECIMATE, z0=None, max_nfev=40, progress=None, warm=None, resume=None, chord=None,
+        decimate=DECIMATE, z0=None, max_nfev=40, progress=None, warm=None, resume=None,
         held_out=True) -> FitResult:
     """Fit `spec` (list of FreeParameter) to the dataset's training recordings (module
     docstring). base: the parameters the spec is applied to (default the dataset's
@@ -574,20 +541,13 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
     their mean over each condition (warm_deltas); resume: a FitResult of this same spec
     whose search stopped early (max_nfev) - the search goes on from exactly where it
     stopped (its globals, factors and timing; base is its base), and the result counts
-    its runs and time too; chord: a FitResult near whose end this search starts (a refit
-    at twice the elements, or without an entry) - its training search's Jacobian, and
-    for a refit of its own spec its held-out one, serve every step (the chord method,
-    _solve's jac0): each step costs one batch of runs, not one more per global and per
-    kind of nuisance (forward differences; behind a series resistance, whose runs take
-    10x as long for each switch's R_s C transient, the checks' refits took 213 s of a
-    combined case's 583).
-    held_out=False: the held-out recordings are not fitted (heldout_rmse None: a start
+    its runs and time too; held_out=False: the held-out recordings are not fitted (heldout_rmse None: a start
     of several that race on their cost, _multistart). BLAS runs on one thread meanwhile
     (one_blas_thread)."""
     with threadpool_limits(1):
         if resume is None:
             return _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm,
-                        chord=chord, held_out=held_out)
+                        held_out=held_out)
         f = _fit(dataset, spec, resume.base, holdout, executor, sigma_rep, decimate, resume.z, max_nfev, progress,
                  warm, resume, held_out=held_out)
         return replace(f, runs=f.runs + resume.runs, wall_time=f.wall_time + resume.wall_time)
@@ -605,7 +565,7 @@ def _condition_of(dataset, c) -> tuple:
 
 
 def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm,
-         resume=None, chord=None, held_out=True) -> FitResult:
+         resume=None, held_out=True) -> FitResult:
     wall = time.perf_counter()
     base = base or dataset.params
     holdout = choose_holdout(dataset) if holdout is None else [_condition_of(dataset, c) for c in holdout]
@@ -620,11 +580,8 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     z_start = start(base, spec) if z0 is None else np.asarray(z0, float)
     d0 = _start_deltas(warm, resume, train)
     t0 = resume.timing if resume is not None else None if warm is None else warm.timing
-    if chord is not None and (chord.train != [r.name for r in train] or chord.heldout != [r.name for r in held]):
-        chord = None          # another split of the recordings: its Jacobians do not apply
-    jac0 = None if chord is None else _chord_jacobian(chord, spec)
     sol, prob, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0,
-                           t0, jac0)
+                           t0)
     n, T = prob.n, prob.T
     x = sol.x
     notes = []
@@ -654,19 +611,12 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     # resistivity factor and drive's timing, with the same priors) fitted
     if held and held_out:
         # started from the resumed search's own held-out fit, else the warm one's (a
-        # racing start skipped it). The chord's held-out Jacobian serves only a refit of its
-        # own model (twice the elements: 6 recordings' held-out search behind a series
-        # resistance and a branch 24 -> 9 s, the error within 0.1 %): a model's nuisances
-        # move the stroke differently under another model (the baseline's held-out Jacobian
-        # left a series resistance's held-out error at 6.81 um for 6.39, a chord's fixed
-        # point away from the optimum where the residuals are large)
+        # racing start skipped it)
         own = resume if resume is not None and all(r.name in resume.rho_factors for r in held) else None
         h0 = _start_deltas(warm, own, held)
         th = own.timing if own is not None else None if warm is None else warm.timing
-        jac0_h = chord.lsq.get("J_h") if chord is not None and list(chord.spec) == list(spec) else None
         sol_h, prob_h, xs_h = _solve(held, fitted, [], [], runner, sigma, sigma_rep, decimate, max_nfev, progress, h0,
-                                     th, jac0_h)
-        lsq["J_h"] = sol_h.jac.toarray() if hasattr(sol_h.jac, "toarray") else np.asarray(sol_h.jac)
+                                     th)
         factors.update({r.name: math.exp(sol_h.x[j]) for j, r in enumerate(held)})
         timing.update({r.name: tm for r, tm in zip(held, prob_h.timing(sol_h.x[len(held):])) if tm})
     else:

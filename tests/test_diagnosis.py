@@ -210,44 +210,6 @@ def test_a_stopped_search_resumes_exactly_where_it_stopped(null):
     assert on.values["k"] == pytest.approx(whole.values["k"], rel=0.05, abs=0.5)
 
 
-def test_a_refit_near_a_fit_keeps_its_jacobian(null):
-    """fit(chord=f): a refit that starts near f's end (twice the elements; the model
-    without an entry) keeps f's training Jacobian (and, refitting f's own spec, its
-    held-out one) at every step instead of differencing again, then polishes with
-    differences (POLISH_NFEV). It must end where the differenced refit ends - here data
-    made at the fit's N, refitted at twice it, where the drive's timing moves by a
-    millisecond and the chord alone stopped 0.6 % of the cost short (fewer runs are the
-    benchmark's matter); a spec with a parameter f lacks, or another split of the
-    recordings, falls back to differences."""
-    import importlib
-    dg = importlib.import_module("diagnosis.diagnose")
-    F = importlib.import_module("diagnosis.fit")
-    from diagnosis.catalog import PHYSICS, baseline_spec
-    D = null[0]
-    f0, ctx = D.baseline, D.context
-    fb = f0.params.replace(N=dg.fine_N(f0.params.N))
-    spec = baseline_spec(fb, ctx)
-    fd = F.fit(D.dataset, spec, base=fb, warm=f0, max_nfev=dg.RES_NFEV)
-    ch = F.fit(D.dataset, spec, base=fb, warm=f0, max_nfev=dg.RES_NFEV, chord=f0)
-    assert ch.cost == pytest.approx(fd.cost, rel=2e-3)
-    assert abs(ch.values["rho_l"] - fd.values["rho_l"]) < 0.2 * fd.stderr["rho_l"]
-    assert ch.heldout_rmse == pytest.approx(fd.heldout_rmse, rel=0.01)
-    assert ch.lsq["J_h"].shape[0] > 0
-    # the kept model without an entry: a stiffness fitted, then refitted without it from its end
-    e = next(x for x in PHYSICS if x.key == "stiffness")
-    p = e.prepare(f0.params, ctx)
-    fk = F.fit(D.dataset, dg._spec(p, ctx, [e]), base=p.replace(k=50.0), warm=f0, max_nfev=8)
-    pw, spec_w = dg._without(e, [e], fk.params, f0.params, ctx)
-    assert F._chord_jacobian(fk, spec_w).shape == (fk.lsq["J"].shape[0], fk.lsq["J"].shape[1] - 1)
-    assert F._chord_jacobian(f0, dg._spec(p, ctx, [e])) is None      # f0 has no k: differences
-    back = F.fit(D.dataset, spec_w, base=pw, warm=fk, max_nfev=dg.RES_NFEV, chord=fk)
-    assert back.cost == pytest.approx(f0.cost, rel=2e-3)
-    assert back.heldout_rmse == pytest.approx(f0.heldout_rmse, rel=0.01)
-    # another split of the recordings: the chord does not apply, the refit differences
-    other = F.fit(D.dataset, spec, base=fb, warm=f0, max_nfev=dg.RES_NFEV, chord=f0, holdout=[])
-    assert other.heldout_rmse is None
-
-
 def test_several_starts_race_a_few_evaluations_and_the_leader_goes_on(monkeypatch):
     """_multistart: with several starts each fit runs START_NFEV evaluations; the one of
     least cost (not the first, not the last) is resumed to CANDIDATE_NFEV in all; a start
