@@ -180,8 +180,8 @@ def shortlist(screens: dict, strong: bool = False) -> list:
     acceptance still asks the held-out fall of HELDOUT_MIN. The share of the round's best
     still applies: fitting every strong form (a branch at 6 noises, 16 % of the best
     one's BIC fall, was named so) ran the issue-size combined case (a series resistance
-    and a branch at 20 noises) past 630 s - but without it that case also ran past 480 s
-    (262 s on 2026-11-24): the cause is not isolated yet."""
+    and a branch at 20 noises) past 630 s, against 583 s without it (its runs behind the
+    series resistance take 10x as long: docs/guide/diagnosis.md)."""
     passing = [k for k, s in screens.items() if s["predicted_delta_bic"] < 0
                and (s["heldout_ratio"] is None or s["heldout_ratio"] < 1 - SCREEN_HELDOUT
                     or (strong and s["predicted_delta_bic"] <= -BIC_MIN))]

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from dfa_model.physics.dielectrics import from_parameters
+from diagnosis.diagnose import HELDOUT_MIN, MAX_ROUNDS
 from diagnosis.proofs import CASES, E6, run
 from improved_support import check_improved
 
@@ -59,6 +60,13 @@ def test_concealed_effect_is_named_recovered_and_proved(tmp_path, name):
         assert np.max(np.abs(rho_fit * mean_factor / rho_true - 1)) < 0.10, (E, rho_fit, rho_true)
     assert (tmp_path / "out" / "fitted_terms.png").is_file()
     assert not goal_misses(report), goal_misses(report)
+    # no round is run beyond reach: after the round whose kept model leaves the held-out
+    # error within 1 / (1 - HELDOUT_MIN) sensor noises (no candidate can cut it by
+    # HELDOUT_MIN), none follows; otherwise one more screens and keeps nothing
+    if not D.raised and len(D.chain) < MAX_ROUNDS:
+        last = D.rounds[len(D.chain) - 1][D.chain[-1].key]["heldout_rmse"]
+        reach = (1 - HELDOUT_MIN) * last <= D.baseline.sigma
+        assert len(D.rounds) == len(D.chain) + (0 if reach else 1), (last, D.baseline.sigma, len(D.rounds))
     # the improved model as a file every command takes (the FMU for every entry but the
     # combined one, whose two entries are each built alone)
     check_improved(D, report, tmp_path / "out", fmu=name != "combined")
