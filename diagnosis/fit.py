@@ -406,8 +406,15 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     # so the search stopped short in them
     dense = (n + R + pin + T) * (k + R + T) <= DENSE_MAX
 
+    def simulate_many(xps):
+        # several points' runs in one batch: the executor's workers stay busy across them
+        # (9 recordings on 2 cores left one idle at every batch's end)
+        jobs = [prob.jobs(apply(base, spec, xp[:k]), xp[k:k + R], tz=xp[k + R:] if T else None) for xp in xps]
+        runs = prob.runner([j for js in jobs for j in js])
+        return [runs[i - len(js):i] for js, i in zip(jobs, np.cumsum([len(js) for js in jobs]))]
+
     def simulate_all(x):
-        return prob.runs(apply(base, spec, x[:k]), x[k:k + R], tz=x[k + R:] if T else None)
+        return simulate_many([x])[0]
 
     def fun(x):
         xs = simulate_all(x)
@@ -427,14 +434,8 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
         return last[key]
 
     def fun_many(xps):
-        # the residuals at several points from one batch of runs: the executor's workers
-        # stay busy across them (9 recordings on 2 cores left one idle at every batch's end)
-        jobs = [prob.jobs(apply(base, spec, xp[:k]), xp[k:k + R], tz=xp[k + R:] if T else None) for xp in xps]
-        runs = prob.runner([j for js in jobs for j in js])
-        out, i = [], 0
-        for xp, js in zip(xps, jobs):
-            out.append(prob.residuals(runs[i:i + len(js)], xp[k:k + R], xp[k + R:] if T else None))
-            i += len(js)
+        out = [prob.residuals(xs, xp[k:k + R], xp[k + R:] if T else None)
+               for xp, xs in zip(xps, simulate_many(xps))]
         if progress:
             progress(f"{runner.runs} runs")
         return out
@@ -456,7 +457,7 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
         hs = np.where(x[k:k + R] + FD_STEP <= hi[k:k + R], FD_STEP, -FD_STEP) if R else None
         # a recording's factor moves its samples exactly as the common level does (both
         # scale its whole law by exp(h)): the level's runs serve
-        share = R and k and level and hg[0] > 0 and np.all(hs > 0)
+        share = bool(R and level and hg[0] > 0 and np.all(hs > 0))
         if R and not share:
             xp = x.copy()
             xp[k:k + R] += hs
@@ -471,8 +472,8 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
             for j, i in which:
                 steps[j] = h if x[k + R + i] + h <= hi[k + R + i] else -h
                 xp[k + R + i] += steps[j]
+            timing.append((which, steps, len(points)))
             points.append(xp)
-            timing.append((which, steps))
         fs = fun_many(points) if points else []
         rows, cols, vals = [], [], []
         for i in range(k):
@@ -490,8 +491,8 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
                 cols.append(k + np.arange(R))
                 vals.append(np.full(R, PIN / sigma_rep))
         # the drives' timing, and each nuisance's prior row
-        for (which, steps), fp in zip(timing, fs[len(fs) - len(timing):]):
-            d = fp - f0
+        for which, steps, at in timing:
+            d = fs[at] - f0
             for j, i in which:
                 rows += [np.arange(offs[j], offs[j + 1]), [n + R + pin + i]]
                 cols += [np.full(offs[j + 1] - offs[j], k + R + i), [k + R + i]]
@@ -522,12 +523,13 @@ def warm_deltas(warm, recs) -> list:
     return [d[r.name] - float(np.mean(by[r.condition()])) for r in recs]
 
 
-def _start_deltas(warm, resume, recs) -> list | None:
-    """The recordings' log resistivity factors a search starts from: a resumed search's
-    exactly where it stopped (not less a condition's mean), else warm_deltas, else None."""
+def _start_nuisances(warm, resume, recs) -> tuple:
+    """(the recordings' log resistivity factors, their drives' timing) a search starts
+    from: a resumed search's exactly where it stopped (not less a condition's mean), else
+    the warm fit's (warm_deltas), else None."""
     if resume is not None:
-        return [math.log(resume.rho_factors.get(r.name, 1.0)) for r in recs]
-    return None if warm is None else warm_deltas(warm, recs)
+        return [math.log(resume.rho_factors.get(r.name, 1.0)) for r in recs], resume.timing
+    return (None, None) if warm is None else (warm_deltas(warm, recs), warm.timing)
 
 
 def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=None, sigma_rep=SIGMA_REP,
@@ -541,9 +543,9 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
     their mean over each condition (warm_deltas); resume: a FitResult of this same spec
     whose search stopped early (max_nfev) - the search goes on from exactly where it
     stopped (its globals, factors and timing; base is its base), and the result counts
-    its runs and time too; held_out=False: the held-out recordings are not fitted (heldout_rmse None: a start
-    of several that race on their cost, _multistart). BLAS runs on one thread meanwhile
-    (one_blas_thread)."""
+    its runs and time too; held_out=False: the held-out recordings are not fitted
+    (heldout_rmse None: a start of several that race on their cost, _multistart). BLAS
+    runs on one thread meanwhile (one_blas_thread)."""
     with threadpool_limits(1):
         if resume is None:
             return _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm,
@@ -571,15 +573,14 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     holdout = choose_holdout(dataset) if holdout is None else [_condition_of(dataset, c) for c in holdout]
     recs = dataset.recordings
     train = [r for r in recs if r.condition() not in holdout]
-    held = [r for r in recs if r.condition() in holdout]
+    held = [r for r in recs if r.condition() in holdout] if held_out else []
     if not train:
         raise FitError("holdout: every recording is held out; nothing to fit")
     runner = Runner(executor)
     sigma = float(np.median([noise_level(r) for r in recs]))
     k, R = len(spec), len(train)
     z_start = start(base, spec) if z0 is None else np.asarray(z0, float)
-    d0 = _start_deltas(warm, resume, train)
-    t0 = resume.timing if resume is not None else None if warm is None else warm.timing
+    d0, t0 = _start_nuisances(warm, resume, train)
     sol, prob, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0,
                            t0)
     n, T = prob.n, prob.T
@@ -609,19 +610,17 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     timing = {r.name: tm for r, tm in zip(train, prob.timing(x[k + R:])) if tm}
     # held out: the physics fixed at the fit, only each recording's nuisances (its offset,
     # resistivity factor and drive's timing, with the same priors) fitted
-    if held and held_out:
+    if held:
         # started from the resumed search's own held-out fit, else the warm one's (a
         # racing start skipped it)
         own = resume if resume is not None and all(r.name in resume.rho_factors for r in held) else None
-        h0 = _start_deltas(warm, own, held)
-        th = own.timing if own is not None else None if warm is None else warm.timing
+        h0, th = _start_nuisances(warm, own, held)
         sol_h, prob_h, xs_h = _solve(held, fitted, [], [], runner, sigma, sigma_rep, decimate, max_nfev, progress, h0,
                                      th)
         factors.update({r.name: math.exp(sol_h.x[j]) for j, r in enumerate(held)})
         timing.update({r.name: tm for r, tm in zip(held, prob_h.timing(sol_h.x[len(held):])) if tm})
     else:
         xs_h = []
-        held = held if held_out else []
     simulated, offsets, shifts = {}, {}, {}
     sq = {"train": [0.0, 0], "held": [0.0, 0]}
     for r, xm, part in [(r, xm, "train") for r, xm in zip(train, xs)] + [(r, xm, "held") for r, xm in zip(held, xs_h)]:
