@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 from dfa_model.interrupt import stop_pool
 
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
-from .fit import fit, local_executor
+from .fit import evaluate, fit, local_executor
 from .improved import NOTHING_KEPT
 from .locate import condition_trends, locate
 from .model import apply
@@ -249,7 +249,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         windows = locate(dataset, f0)
         trends = condition_trends(dataset, windows)
         pool = list(candidates) if candidates is not None else PHYSICS + NOMINAL
-        rounds, tried = [], None
+        rounds, refits = [], []     # (a fit, its refit at fine_N) made on the way (_raise_kept)
         while True:
             kept, current, before = [], f0, None
             for rnd in range(MAX_ROUNDS):
@@ -321,6 +321,8 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                 base, f0, current, before, steps, tried = _raise_kept(dataset, base, ctx, kept, current, f0, before,
                                                                       holdout, executor, say, RAISE_MAX - len(raised),
                                                                       fine)
+                if tried:
+                    refits.append(tried)
                 if steps:
                     raised, fine = raised + steps, None     # the next rounds, and the checks, run at the finer N
             retry = _retry_finer(dataset, base, ctx, f0, kept, holdout, executor, say, RAISE_MAX - len(raised),
@@ -340,7 +342,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
             say(f"nothing held out: {', '.join(e.key for e in unverified)} not applied (unverified suggestions)")
         if any(e.kind == "physics" for e in kept):
             kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
-                                                         say, fine, before, tried)
+                                                         say, fine, before, refits)
         final_windows = locate(dataset, current) if current is not f0 else None
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
                          final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
@@ -554,7 +556,7 @@ def fine_N(N: int) -> int:
 
 
 def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, say, fine=None, before=None,
-                      tried=None):
+                      refits=()):
     """Rule out the model's own discretization error before naming missing physics. The
     baseline and the kept model are refitted at fine_N (warm-started: a few steps). Real
     physics keeps its gain over the baseline when the elements double; an entry that only
@@ -567,8 +569,10 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
     fits better than at N, that refit is the final model (record 'refined'): the model's
     own resolution error is not left to read as unexplained mismatch. `fine`: the
     baseline's refit at fine_N if _resolve already made it; `before`: the fit the last kept
-    entry was fitted on top of (_last_entry_check); `tried`: (kept fit, its refit at
-    fine_N) if _raise_kept made it (_fine_kept). The check assumes the finer
+    entry was fitted on top of (_last_entry_check); `refits`: [(a fit, its refit at
+    fine_N)] that _raise_kept made, reused where a check needs the same refit. The kept
+    model at fine_N is first its fit's values evaluated there (_KeptFine): refitted only
+    when a check does not pass on that point, or to be the final model. The check assumes the finer
     model is nearer the data; when the finer baseline fits no better (RES_PREMISE), the data share the model's own grid
     (synthetic data made at this N: then the coarse model is exact and the finer one off by
     its discretization error) and the check is inconclusive: what was kept stands.
@@ -589,8 +593,7 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
         # 23 % at N = 41 on the lab rig, where the branch alone fitted at N = 81 left 1.1
         # noises, while the baseline fitted 18 % worse there)
         inconclusive = _error(ff) >= RES_PREMISE * _error(f0)
-        if not (inconclusive and not _checks_last_entry(kept, before)):
-            fk = _fine_kept(dataset, pk, ctx, kept, current, holdout, executor, tried)
+        kf = _KeptFine(dataset, pk, ctx, kept, current, holdout, executor, refits)
     except Exception as exc:       # the check cannot run: say so, keep what was found
         return kept, current, {"N": N, "N_fine": Nf, "error": f"{type(exc).__name__}: {exc}", "resolution_only": False}
     measure = "held-out" if ff.heldout_rmse is not None else "training"
@@ -601,21 +604,39 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
                                "the model misses here (or the data were made at this N)"}
         if not _checks_last_entry(kept, before):
             return kept, current, rec
-        kept, fk = _marginal(rec, dataset, fb, ctx, kept, current, before, fk, holdout, executor, say)
-        return kept, (fk if rec.get("refined") else current), rec
+        try:
+            kept, kf = _marginal(rec, dataset, fb, ctx, kept, current, before, kf, holdout, executor, say, refits)
+        except Exception as exc:   # the kept model cannot be refitted at the finer N: what was kept stands
+            rec["error"] = f"{type(exc).__name__}: {exc}"
+            return kept, current, rec
+        rec["kept_fine"] = kf.how()
+        return kept, (kf.best() if rec.get("refined") else current), rec
     gain = 1.0 - _error(current) / _error(f0)
+    try:
+        holds, fk = _holds(kf, ff, gain)
+    except Exception as exc:       # the kept model cannot be refitted at the finer N: say so, keep what was found
+        return kept, current, {"N": N, "N_fine": Nf, "error": f"{type(exc).__name__}: {exc}", "resolution_only": False}
     gain_fine = 1.0 - _error(fk) / _error(ff)
-    only = not _accept(fk, ff) or gain_fine < RES_SHRINK * gain
+    only = not holds
     rec = {"N": N, "N_fine": Nf, "measure": measure,
            "baseline_rmse": _error(f0), "kept_rmse": _error(current), "baseline_fine_rmse": _error(ff),
            "kept_fine_rmse": _error(fk), "gain": gain, "gain_fine": gain_fine, "resolution_only": bool(only),
            "dropped": [e.key for e in kept if e.kind == "physics"] if only else []}
     if not only:
-        kept, fk = _marginal(rec, dataset, fb, ctx, kept, current, before, fk, holdout, executor, say)
+        try:
+            kept, kf = _marginal(rec, dataset, fb, ctx, kept, current, before, kf, holdout, executor, say, refits)
+            if not rec.get("refined") and not _beyond_reach(current):
+                fk = kf.fit()     # the final model may be the finer one: it is refitted
+        except Exception as exc:   # the kept model cannot be refitted at the finer N: what was kept stands
+            rec["error"] = f"{type(exc).__name__}: {exc}"
+            return kept, current, rec
+        rec["kept_fine"] = kf.how()
         if rec.get("refined"):
             # the rest holds: the finer model without the dropped entries is the final one
-            return kept, fk, rec
-        if _error(fk) < _error(current):
+            return kept, kf.best(), rec
+        fk = kf.best()
+        rec["kept_fine_rmse"], rec["gain_fine"] = _error(fk), 1.0 - _error(fk) / _error(ff)
+        if kf.fitted and _error(fk) < _error(current):
             # the physics holds and the finer model fits better: it is the final model (a kept
             # law of an N = 21 fit to a finer truth left 2.5 noises held out, 1.4 at N = 41; the
             # coarse one would have called the model's own resolution error unexplained)
@@ -656,7 +677,7 @@ def _without(drop, kept, fitted, base, ctx):
 
 def _fit_without(dataset, fb, ctx, e, kept, fk, holdout, executor):
     """The kept model without entry `e` at the finer N (fb), refitted from fk (the kept
-    model's fit there; RES_NFEV evaluations), or None when it cannot run."""
+    model there, fitted or evaluated; RES_NFEV evaluations), or None when it cannot run."""
     try:
         p, spec = _without(e, kept, fk.params, fb, ctx)
         return fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=fk, max_nfev=RES_NFEV)
@@ -671,30 +692,85 @@ def _checks_last_entry(kept, before) -> bool:
         and sum(x.kind == "physics" for x in kept) >= 2
 
 
-def _marginal(rec, dataset, fb, ctx, kept, current, before, fk, holdout, executor, say):
+def _marginal(rec, dataset, fb, ctx, kept, current, before, kf, holdout, executor, say, refits=()):
     """_last_entry_check into the resolution check's record `rec`: `marginal` and
     `dropped_marginal`, and when the last entry is dropped the errors of the final model,
     the rest refitted at the finer N (`kept_rmse`, `kept_fine_rmse`, `refined`). Returns
-    (kept, the kept model's fit at the finer N)."""
-    kept, fk, marginal = _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, executor, say)
-    kept, fk, earlier = _earlier_entries_check(dataset, fb, ctx, kept, fk, holdout, executor, say)
+    (kept, the kept model at the finer N: a _KeptFine)."""
+    kept, kf, marginal = _last_entry_check(dataset, fb, ctx, kept, current, before, kf, holdout, executor, say,
+                                           refits)
+    kept, kf, earlier = _earlier_entries_check(dataset, fb, ctx, kept, kf, holdout, executor, say)
     marginal = marginal + earlier
     if marginal:
         rec["marginal"] = marginal
         rec["dropped_marginal"] = [m["entry"] for m in marginal if m["dropped"]]
         if rec["dropped_marginal"]:
-            rec["kept_rmse"], rec["kept_fine_rmse"], rec["refined"] = _error(current), _error(fk), True
-    return kept, fk
+            rec["kept_rmse"], rec["kept_fine_rmse"], rec["refined"] = _error(current), _error(kf.best()), True
+    return kept, kf
 
 
-def _fine_kept(dataset, pk, ctx, kept, current, holdout, executor, tried=None):
-    """The kept model refitted on pk (its parameters at the finer N), warm from `current`
-    (RES_NFEV evaluations); `tried` = (fit, its refit), the same refit made before
-    (_raise_kept), is used when its fit is `current` and its refit on pk's N."""
-    if tried is not None and tried[0] is current and tried[1].params.N == pk.N:
-        return tried[1]
-    return fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
-               max_nfev=RES_NFEV)
+def _refit_of(refits, f, N):
+    """The refit at N of fit `f` among `refits` [(fit, its refit)], or None."""
+    return next((r for g, r in refits if g is f and r.params.N == N), None)
+
+
+class _KeptFine:
+    """The kept model at the finer N, as the checks need it. First the kept fit's values
+    and nuisances evaluated there (fit.evaluate: one run per recording, ~1/40 of a refit):
+    the refit starts there and only lowers its cost, so a check that passes on this point
+    passes on the refit too; the refit (RES_NFEV evaluations, warm from the kept fit) is
+    made only when a check fails on the point, or for the final model. On the combined
+    case (a series resistance and a branch) that refit of the kept model at N = 161 was
+    72 s of a 350 s diagnosis, and every check passed on the point. `refits`: a refit made
+    before (_raise_kept) is used as it is. `of`: a fit at the finer N already made (the
+    model without an entry a check dropped)."""
+
+    def __init__(self, dataset=None, pk=None, ctx=None, kept=(), current=None, holdout=None, executor=None,
+                 refits=(), of=None):
+        self._args = (dataset, pk, ctx, list(kept), current, holdout, executor)
+        self._fit = of if of is not None else (_refit_of(refits, current, pk.N) if pk is not None else None)
+        self._point = None
+
+    @property
+    def fitted(self) -> bool:
+        return self._fit is not None
+
+    @property
+    def point(self):
+        if self._fit is not None:
+            return self._fit
+        if self._point is None:
+            dataset, pk, _, _, current, _, executor = self._args
+            self._point = evaluate(dataset, current, pk, executor)
+        return self._point
+
+    def fit(self):
+        if self._fit is None:
+            dataset, pk, ctx, kept, current, holdout, executor = self._args
+            self._fit = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor,
+                            warm=current, max_nfev=RES_NFEV)
+        return self._fit
+
+    def best(self):
+        """The refit if made, else the evaluated point."""
+        return self._fit if self._fit is not None else self.point
+
+    def how(self) -> str:
+        return "refitted" if self._fit is not None else "evaluated at the coarse fit's values (not refitted)"
+
+
+def _holds(kf, ref, gain=None) -> tuple:
+    """Whether the kept model at the finer N (kf, a _KeptFine) passes acceptance against
+    `ref` (_accept) and, given `gain`, keeps RES_SHRINK of it (1 - its error / ref's):
+    decided on the evaluated point when it passes there, else on the refit. Returns
+    (holds, the fit or point it was decided on)."""
+    def ok(f):
+        return _accept(f, ref) and (gain is None or 1.0 - _error(f) / _error(ref) >= RES_SHRINK * gain)
+    f = kf.point
+    if ok(f) or kf.fitted:
+        return ok(f), f
+    f = kf.fit()
+    return ok(f), f
 
 
 def _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine=None):
@@ -706,7 +782,7 @@ def _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine=None):
                max_nfev=RES_NFEV)
 
 
-def _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, executor, say):
+def _last_entry_check(dataset, fb, ctx, kept, current, before, kf, holdout, executor, say, refits=()):
     """With two or more physics entries kept, the last one (fitted on top of all the
     others) must hold on its own when the elements double, as the whole set must
     (_resolution_check): the kept model is refitted without it at the finer N (fb), and it
@@ -718,51 +794,54 @@ def _last_entry_check(dataset, fb, ctx, kept, current, before, fk, holdout, exec
     at the fit's own N only inertia was named). Data from N = 81 fitted at 21 with inertia:
     a polarization branch kept beside it cut 50 % at N = 21 and 13 % at N = 41. Only the
     last entry is refitted: each refit at the finer N costs as much as the check itself.
-    Returns (kept, the kept model's fit at the finer N, [{entry, gain, gain_fine,
+    The model without it at the finer N is `before`'s refit there when _raise_kept made
+    one (`refits`: the same model, warm from its own fit). kf: the kept model at the finer
+    N (_KeptFine). Returns (kept, the kept model at the finer N, [{entry, gain, gain_fine,
     rmse_without, dropped}] or [])."""
     if not _checks_last_entry(kept, before):
-        return kept, fk, []
+        return kept, kf, []
     e = kept[-1]
     say(f"resolution check: {e.key} on its own (the kept model without it at N = {fb.N})")
-    fwf = _fit_without(dataset, fb, ctx, e, kept, fk, holdout, executor)
+    fwf = _refit_of(refits, before, fb.N) or _fit_without(dataset, fb, ctx, e, kept, kf.best(), holdout, executor)
     if fwf is None:          # the model without it cannot run: it stays
-        return kept, fk, []
-    gain, gain_fine = 1.0 - _error(current) / _error(before), 1.0 - _error(fk) / _error(fwf)
-    drop = not _accept(fk, fwf) or gain_fine < RES_SHRINK * gain
-    out = [{"entry": e.key, "gain": gain, "gain_fine": gain_fine, "rmse_without": _error(fwf), "dropped": drop}]
-    if not drop:
-        return kept, fk, out
+        return kept, kf, []
+    gain = 1.0 - _error(current) / _error(before)
+    holds, fk = _holds(kf, fwf, gain)
+    out = [{"entry": e.key, "gain": gain, "gain_fine": 1.0 - _error(fk) / _error(fwf), "rmse_without": _error(fwf),
+            "dropped": not holds, "kept_fine": kf.how()}]
+    if holds:
+        return kept, kf, out
     say(f"resolution check: {e.key} cut the error by {gain:.0%} on top of the rest at N = {current.params.N}, by "
-        f"{gain_fine:.0%} at N = {fb.N}: it took up the model's discretization error, not physics")
-    return kept[:-1], fwf, out
+        f"{out[0]['gain_fine']:.0%} at N = {fb.N}: it took up the model's discretization error, not physics")
+    return kept[:-1], _KeptFine(of=fwf), out
 
 
-def _earlier_entries_check(dataset, fb, ctx, kept, fk, holdout, executor, say):
+def _earlier_entries_check(dataset, fb, ctx, kept, kf, holdout, executor, say):
     """Backward elimination after the forward selection: with two or more physics entries
     kept, each one kept before the last must still pass acceptance (_accept) on top of all
-    the others, at the finer N (fb) - the kept model without it refitted from fk, the
-    kept model there (RES_NFEV evaluations). The first that fails is dropped (a BIC
+    the others, at the finer N (fb) - the kept model without it refitted from the kept
+    model there (kf, a _KeptFine; RES_NFEV evaluations). The first that fails is dropped (a BIC
     falling 13685 for a spring against 13218 for a branch kept the spring first on a
     branch's dataset; the branch, kept two rounds later, explains what the spring took
-    up, and the spring was named as well). Returns (kept, the kept model's fit at the
+    up, and the spring was named as well). Returns (kept, the kept model at the
     finer N, [{entry, gain_fine, rmse_without, dropped, later: True}])."""
     if sum(x.kind == "physics" for x in kept) < 2:
-        return kept, fk, []
+        return kept, kf, []
     out = []
     for e in [x for x in kept[:-1] if x.kind == "physics"]:
         say(f"resolution check: {e.key} on top of the entries kept after it (the kept model without it at "
             f"N = {fb.N})")
-        fwf = _fit_without(dataset, fb, ctx, e, kept, fk, holdout, executor)
+        fwf = _fit_without(dataset, fb, ctx, e, kept, kf.best(), holdout, executor)
         if fwf is None:          # the model without it cannot run: it stays
             continue
-        drop = not _accept(fk, fwf)
+        holds, fk = _holds(kf, fwf)
         out.append({"entry": e.key, "gain_fine": 1.0 - _error(fk) / _error(fwf), "rmse_without": _error(fwf),
-                    "dropped": drop, "later": True})
-        if drop:
+                    "dropped": not holds, "later": True, "kept_fine": kf.how()})
+        if not holds:
             say(f"resolution check: {e.key} cuts the error by {out[-1]['gain_fine']:.0%} on top of the entries kept "
                 f"after it at N = {fb.N}: they explain what it took up")
-            return [x for x in kept if x is not e], fwf, out
-    return kept, fk, out
+            return [x for x in kept if x is not e], _KeptFine(of=fwf), out
+    return kept, kf, out
 
 
 def _um(x):

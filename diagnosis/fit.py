@@ -555,6 +555,46 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
         return replace(f, runs=f.runs + resume.runs, wall_time=f.wall_time + resume.wall_time)
 
 
+def evaluate(dataset, fr: FitResult, params: Parameters, executor=None) -> FitResult:
+    """fr's model at `params` (its fitted values at another N, say) with fr's own
+    nuisances - each recording's resistivity factor and drive timing, as fitted - and
+    nothing fitted again but each sensor's zero and time shift (align): one run per
+    recording, training and held out, in one batch. A feasible point of the refit at
+    `params` that starts there: the refit's training residuals can only be smaller, so a
+    check that this point passes needs no refit (diagnose._resolution_check). The result
+    has fr's spec, k and n (its BIC compares with fits of the same data); `notes` says it
+    was evaluated, not fitted."""
+    wall = time.perf_counter()
+    by = {r.name: r for r in dataset.recordings}
+    train, held = [by[n] for n in fr.train], [by[n] for n in fr.heldout]
+    decimate = fr.lsq["decimate"] if fr.lsq else DECIMATE
+    sigma_rep = fr.lsq["sigma_rep"] if fr.lsq else SIGMA_REP
+    runner = Runner(executor)
+    probs = [Problem(rs, runner, fr.sigma, sigma_rep, decimate, False) for rs in (train, held)]
+    deltas = [[math.log(fr.rho_factors.get(r.name, 1.0)) for r in rs] for rs in (train, held)]
+    tzs = [pb.flat_timing(fr.timing) for pb in probs]
+    jobs = [pb.jobs(params, d, tz=tz) for pb, d, tz in zip(probs, deltas, tzs)]
+    runs = runner(jobs[0] + jobs[1])
+    xs = [runs[:len(jobs[0])], runs[len(jobs[0]):]]
+    simulated, offsets, shifts, sq = {}, {}, {}, [[0.0, 0], [0.0, 0]]
+    for part, rs in enumerate((train, held)):
+        for r, xm in zip(rs, xs[part]):
+            if isinstance(xm, str):
+                raise FitError(f"{r.name}: the model does not run at N = {params.N} ({xm})")
+            simulated[r.name], offsets[r.name], shifts[r.name] = align(r.stroke, xm, fr.sigma)
+            e = r.stroke - simulated[r.name]
+            sq[part][0] += float(e @ e)
+            sq[part][1] += e.size
+    res = probs[0].residuals(xs[0], deltas[0], tzs[0])
+    r_fit = res[:probs[0].n]
+    return replace(fr, params=params, offsets=offsets, time_shifts=shifts, simulated=simulated,
+                   train_rmse=math.sqrt(sq[0][0] / sq[0][1]),
+                   heldout_rmse=math.sqrt(sq[1][0] / sq[1][1]) if held else None,
+                   rss=float(r_fit @ r_fit) * fr.sigma ** 2, cost=0.5 * float(res @ res),
+                   wall_time=time.perf_counter() - wall, runs=runner.runs, lsq=None, converged=False,
+                   notes=[f"evaluated at N = {params.N} with the fit's values and nuisances, not refitted"])
+
+
 def _condition_of(dataset, c) -> tuple:
     """The dataset's condition a user's (V, F) names (within the grouping's tolerances:
     a condition's key is its first recording's values)."""

@@ -24,6 +24,18 @@ def _stubbed_fit(err, bic, N, sigma=1e-6):
     return NS(heldout_rmse=err, train_rmse=err, bic=bic, sigma=sigma, params=preset("vshape-table1").replace(N=N))
 
 
+def _stub_point(monkeypatch, dg, err, bic, sigma=1e-6):
+    """The kept model's values evaluated at the finer N (fit.evaluate, _KeptFine) stubbed:
+    that point's error and BIC; returns the list of the N it was evaluated at."""
+    calls = []
+
+    def point(dataset, fr, params, executor=None):
+        calls.append(params.N)
+        return _stubbed_fit(err, bic, params.N, sigma)
+    monkeypatch.setattr(dg, "evaluate", point)
+    return calls
+
+
 @pytest.fixture(scope="module")
 def coarse(tmp_path_factory):
     folder = tmp_path_factory.mktemp("resolution")
@@ -70,25 +82,49 @@ def test_physics_that_holds_is_refitted_where_the_model_resolves_the_data(monkey
     monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
     base = preset("vshape-table1").replace(N=21)
     f0, current = res(9.3e-6, 0.0, 21), res(5.2e-6, -900.0, 21)
-    # (finer baseline, finer kept): both hold the physics' gain; only the first fits better at N = 41
+    # (finer baseline, finer kept): both hold the physics' gain; only the first fits better at N = 41.
+    # The check passes on the kept fit's values evaluated at N = 41; the kept model, 5.2 noises
+    # from the data, is still refitted there: it may be the final model
     for fine_base, fine_kept, refined in ((5.7e-6, 3.0e-6, True), (8.0e-6, 5.5e-6, False)):
+        points = _stub_point(monkeypatch, dg, 1.05 * fine_kept, -1350.0)
         fits = iter([res(fine_base, -400.0, 41), res(fine_kept, -1400.0, 41)])
         monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
         kept, final, rec = dg._resolution_check(None, base, None, [entry], current, f0, None, None, lambda s: None)
         assert kept == [entry] and not rec["resolution_only"], rec
-        assert bool(rec.get("refined")) is refined
+        assert bool(rec.get("refined")) is refined and points == [41] and rec["kept_fine"] == "refitted"
         assert final.params.N == (41 if refined else 21) and final.heldout_rmse == min(fine_kept, 5.2e-6)
-    # the kept model's refit that _raise_kept made and did not take is not made again; one of
-    # another fit (an entry kept since) is not used
+        assert rec["kept_fine_rmse"] == fine_kept
+    # the kept model's refit that _raise_kept made and did not take is not made again, nor
+    # evaluated; one of another fit (an entry kept since) is not used
+    points = _stub_point(monkeypatch, dg, 3.2e-6, -1350.0)
     fits = iter([res(5.7e-6, -400.0, 41)])
     monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
     kept, final, rec = dg._resolution_check(None, base, None, [entry], current, f0, None, None, lambda s: None,
-                                            tried=(current, res(3.0e-6, -1400.0, 41)))
-    assert rec["kept_fine_rmse"] == 3.0e-6 and final.heldout_rmse == 3.0e-6
+                                            refits=[(current, res(3.0e-6, -1400.0, 41))])
+    assert rec["kept_fine_rmse"] == 3.0e-6 and final.heldout_rmse == 3.0e-6 and points == []
     fits = iter([res(5.7e-6, -400.0, 41), res(3.1e-6, -1400.0, 41)])
     kept, final, rec = dg._resolution_check(None, base, None, [entry], current, f0, None, None, lambda s: None,
-                                            tried=(res(5.2e-6, -900.0, 21), res(3.0e-6, -1400.0, 41)))
-    assert rec["kept_fine_rmse"] == 3.1e-6
+                                            refits=[(res(5.2e-6, -900.0, 21), res(3.0e-6, -1400.0, 41))])
+    assert rec["kept_fine_rmse"] == 3.1e-6 and points == [41]
+    # a kept model at the noise (within 1.11 noises: nothing could cut its error by 10 %) that
+    # passes on its evaluated values is not refitted: the final model stays at N
+    at_noise = res(1.05e-6, -900.0, 21)
+    points = _stub_point(monkeypatch, dg, 1.1e-6, -1350.0)
+    fits = iter([res(5.7e-6, -400.0, 41)])
+    kept, final, rec = dg._resolution_check(None, base, None, [entry], at_noise, f0, None, None, lambda s: None)
+    assert kept == [entry] and final is at_noise and points == [41] and not rec.get("refined")
+    assert rec["kept_fine"].startswith("evaluated") and rec["kept_fine_rmse"] == 1.1e-6
+    # ... but a point that does not pass is not the verdict: the refit decides (here it passes)
+    points = _stub_point(monkeypatch, dg, 5.6e-6, -420.0)
+    fits = iter([res(5.7e-6, -400.0, 41), res(1.02e-6, -1400.0, 41)])
+    kept, final, rec = dg._resolution_check(None, base, None, [entry], at_noise, f0, None, None, lambda s: None)
+    assert kept == [entry] and not rec["resolution_only"] and rec["kept_fine"] == "refitted"
+    assert rec["kept_fine_rmse"] == 1.02e-6 and final.heldout_rmse == 1.02e-6 and rec["refined"]
+    # and one whose refit fails as well is dropped as resolution error
+    points = _stub_point(monkeypatch, dg, 5.6e-6, -420.0)
+    fits = iter([res(5.7e-6, -400.0, 41), res(5.4e-6, -405.0, 41)])
+    kept, final, rec = dg._resolution_check(None, base, None, [entry], at_noise, f0, None, None, lambda s: None)
+    assert kept == [] and rec["resolution_only"] and final.heldout_rmse == 5.7e-6
 
 
 def test_a_truth_law_outside_the_parameter_file(tmp_path):
@@ -240,19 +276,32 @@ def test_the_last_entry_is_checked_when_the_finer_baseline_fits_no_better(monkey
     base = preset("vshape-table1").replace(N=41)
     f0, before, current = res(6.21e-6, 0.0, 41), res(1.87e-6, -9000.0, 41), res(1.44e-6, -15000.0, 41)
     for without, dropped in ((1.41e-6, True), (1.90e-6, False)):
-        # finer baseline (worse: inconclusive), finer kept model, finer kept model without the law,
-        # and (the law kept) without the branch, which holds (_earlier_entries_check)
-        fits = iter([res(7.32e-6, 0.0, 81), res(1.40e-6, -16000.0, 81),
-                     res(without, -15990.0 if dropped else -9000.0, 81), res(5.0e-6, -3000.0, 81)])
+        # finer baseline (worse: inconclusive), finer kept model without the law; its values at
+        # N = 81 pass against that when the law holds, and the kept model is not refitted; when
+        # they do not, its refit decides; then (the law kept) without the branch, which holds
+        # (_earlier_entries_check)
+        points = _stub_point(monkeypatch, dg, 1.45e-6, -15500.0, 1.26e-6)
+        fits = iter([res(7.32e-6, 0.0, 81), res(without, -15990.0 if dropped else -9000.0, 81)]
+                    + ([res(1.40e-6, -16000.0, 81)] if dropped else [res(5.0e-6, -3000.0, 81)]))
         monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
         kept, final, rec = dg._resolution_check(None, base, None, [branch, law], current, f0, None, None,
                                                 lambda s: None, before=before)
-        assert "inconclusive" in rec
+        assert "inconclusive" in rec and points == [81] and next(fits, None) is None
         assert [m["entry"] for m in rec["marginal"]] == [law.key] + ([] if dropped else [branch.key])
         if dropped:
             assert kept == [branch] and rec["dropped_marginal"] == [law.key] and final.params.N == 81
+            assert rec["marginal"][0]["gain_fine"] == pytest.approx(1 - 1.40 / 1.41)    # decided on the refit
         else:
             assert kept == [branch, law] and final is current and rec["dropped_marginal"] == []
+    # the model without the last entry at the finer N is the refit _raise_kept made of the fit it
+    # was added to, when there is one: not fitted again
+    points = _stub_point(monkeypatch, dg, 1.45e-6, -15500.0, 1.26e-6)
+    fits = iter([res(7.32e-6, 0.0, 81), res(5.0e-6, -3000.0, 81)])
+    monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+    kept, final, rec = dg._resolution_check(None, base, None, [branch, law], current, f0, None, None,
+                                            lambda s: None, before=before,
+                                            refits=[(before, res(1.90e-6, -9000.0, 81))])
+    assert kept == [branch, law] and rec["marginal"][0]["rmse_without"] == 1.90e-6 and next(fits, None) is None
     # a single physics entry: nothing more is fitted once the premise fails
     fits = iter([res(7.32e-6, 0.0, 81)])
     monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
@@ -283,9 +332,13 @@ def test_an_entry_kept_before_others_must_hold_on_top_of_them(monkeypatch):
     f0, before, current = res(7.43e-6, 0.0, 21), res(4.19e-6, -38000.0, 21), res(3.67e-6, -44000.0, 21)
     for spring_without, dropped in ((2.85e-6, True), (3.60e-6, False)):
         dropped_by.clear()
-        # finer baseline (worse: inconclusive), finer kept model, without the branch (last), without the spring
-        fits = iter([res(7.60e-6, 0.0, 41), res(2.81e-6, -60000.0, 41), res(4.40e-6, -40000.0, 41),
-                     res(spring_without, -59995.0 if dropped else -50000.0, 41)])
+        # finer baseline (worse: inconclusive), without the branch (last), without the spring; the
+        # kept model's values at N = 41 pass against both where the spring holds, else its refit
+        # decides
+        _stub_point(monkeypatch, dg, 2.9e-6, -58000.0, 2.5e-6)
+        fits = iter([res(7.60e-6, 0.0, 41), res(4.40e-6, -40000.0, 41),
+                     res(spring_without, -59995.0 if dropped else -50000.0, 41)]
+                    + ([res(2.81e-6, -60000.0, 41)] if dropped else []))
         monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
         kept, final, rec = dg._resolution_check(None, base, None, [spring, eps, branch], current, f0, None, None,
                                                 lambda s: None, before=before)
@@ -349,3 +402,22 @@ def test_resolution_last_when_nothing_was_kept(monkeypatch):
     assert not calls
     from diagnosis.improved import raised_phrases
     assert "after the selection kept nothing (resolution last)" in raised_phrases([step])[0]
+
+
+def test_a_fit_evaluated_at_another_N(coarse):
+    """fit.evaluate: a fit's values and nuisances run at another N, nothing refitted but
+    each sensor's zero and time shift - the point a check at the finer N tries before any
+    refit (_KeptFine). At the fit's own N it is the fit (same errors and BIC); at twice
+    the elements the baseline's refit there, which starts from those values, fits the
+    training data at least as well."""
+    from diagnosis.fit import evaluate
+    D, _, _ = coarse
+    f0 = D.baseline
+    same = evaluate(D.dataset, f0, f0.params, InProcess())
+    assert same.train_rmse == pytest.approx(f0.train_rmse, rel=1e-9)
+    assert same.heldout_rmse == pytest.approx(f0.heldout_rmse, rel=1e-9)
+    assert same.bic == pytest.approx(f0.bic, rel=1e-9) and same.runs == len(D.dataset.recordings)
+    fine = evaluate(D.dataset, f0, f0.params.replace(N=41), InProcess())
+    assert fine.params.N == 41 and "not refitted" in fine.notes[0] and not fine.converged
+    assert fine.train_rmse != f0.train_rmse
+    assert D.final.params.N == 41 and D.final.train_rmse <= fine.train_rmse
