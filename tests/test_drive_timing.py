@@ -5,6 +5,7 @@ clock and a switch's place within its 1 kHz sample, on data the fit's model did 
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 import sys
 import warnings
 
@@ -46,7 +47,15 @@ def test_the_hold_start_joins_the_resets_grid_only_when_it_lies_on_it():
     reset's grid leaves an off-grid hold start as measured."""
     dt = 1e-3
     wave = np.array([0.2505, 0.5005, 0.7505])          # crossings of a 250.1 ms half period
-    assert np.array_equal(_regular_switches(np.append(wave, 0.9995), dt), np.append(wave, 0.9995))
+    assert np.allclose(_regular_switches(np.append(wave, 0.9995), dt), np.append(wave, 0.9995), rtol=0, atol=1e-12)
+    # three switches read one by one, a sample apart from a grid, are put on their line (GRID_MIN);
+    # the hold's start off it stands
+    uneven = np.array([0.2505, 0.5015, 0.7515])
+    sw = _regular_switches(np.append(uneven, 0.9995), dt)
+    assert np.allclose(np.diff(sw[:-1]), 0.2505, rtol=0, atol=1e-9) and np.max(np.abs(sw[:-1] - uneven)) < 0.75 * dt
+    assert sw[-1] == 0.9995
+    # two switches are no grid
+    assert np.array_equal(_regular_switches(np.array([0.2505, 0.5015, 0.9995]), dt), [0.2505, 0.5015, 0.9995])
     k = np.arange(1, 61)
     true = k * 0.5 / 30.004
     read = np.floor(true / dt) * dt + dt / 2           # each crossing within its sample
@@ -110,8 +119,8 @@ def test_a_gridded_resets_hold_start_is_fitted_from_the_stroke(tmp_path, monkeyp
     joins it (recordings.HOLD_ON_GRID) or stands as read - either way only to within its
     sample, while the zipping it starts moves at ~1 m/s (on a fresh trial's null, a
     500 um spike at the hold's start and 5.9 um held out at 1.1 um noise). Its start is a
-    nuisance of every fit (timing.nuisances: the hold's alone; the grid's switches stay
-    as read), and the fit brings it nearer the truth's than the voltage record does."""
+    nuisance of every fit (timing.nuisances: the hold's alone where GRID_PINNED switches
+    or more pin the grid), and the fit brings it nearer the truth's than the voltage record does."""
     from diagnosis.catalog import Context, baseline_spec
     from diagnosis.fit import fit
     from diagnosis.timing import nuisances
@@ -120,7 +129,12 @@ def test_a_gridded_resets_hold_start_is_fitted_from_the_stroke(tmp_path, monkeyp
     # the hold's start: 3 s on the generator's timer, or the wave's seventh pulse if it comes first
     starts = [min(3.0, 6.0 / d["reset_frequency"]) for d in drawn]
     assert all(r.gridded for r in ds.recordings)
-    assert all(set(nuisances(r)) == {"hold_shift"} for r in ds.recordings)
+    # a grid of fewer than GRID_PINNED switches does not pin the reset's timing: it is fitted as a
+    # reset read switch by switch (a shift and a clock) beside the hold's start; and every
+    # recording's voltage monitor's gain
+    assert all(set(nuisances(r)) == {"shift", "clock", "hold_shift", "gain"} for r in ds.recordings)
+    pinned = replace(ds.recordings[0], switches=np.arange(1, 31) / 30.0)
+    assert set(nuisances(pinned)) == {"hold_shift", "gain"}
     spec = baseline_spec(ds.params, Context.of(ds))
     f1 = fit(ds, spec, holdout=[])
     assert set(f1.timing) == {r.name for r in ds.recordings}

@@ -696,10 +696,14 @@ def _regular_switches(t_sw: np.ndarray, dt: float) -> np.ndarray:
     of the wave, or the hold's start on the generator's own timer, off the wave's grid -
     joins the line only when it lies within HOLD_ON_GRID dt of the line through the
     others: a unipolar 2 Hz reset's 3 switches and the hold's start, all within 0.75 dt
-    of one line, gave a line 1.2e-3 off the wave's period and switches 0.6 ms off."""
+    of one line, gave a line 1.2e-3 off the wave's period and switches 0.6 ms off. Three
+    switches of a wave are enough for its line (GRID_MIN): read one by one, each within its
+    sample, a 4 Hz unipolar reset's were up to 0.6 ms apart from a grid, which no shift or
+    clock of the drive (the diagnosis's timing nuisances) could mend - a 137 um spike at a
+    switch of a held-out recording, 6.7 um RMS over its reset."""
     for first in (0, 1):
         n = len(t_sw) - first - 1
-        if n < 4:
+        if n < GRID_MIN:
             continue
         k = np.arange(n)
         b, a = np.polyfit(k, t_sw[first:first + n], 1)
@@ -714,6 +718,7 @@ def _regular_switches(t_sw: np.ndarray, dt: float) -> np.ndarray:
 
 
 HOLD_ON_GRID = 0.6    # the last switch within this many samples of the others' line is on it
+GRID_MIN = 3          # switches of a wave (the last one aside) that put it on a line
 
 
 def _interpret(rec: Recording) -> None:
@@ -787,7 +792,8 @@ def _drive(rec: Recording) -> None:
     rec.protocol = Protocol(stages)
 
 
-def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: float = 0.0) -> Recording:
+def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: float = 0.0,
+            gain: float = 0.0) -> Recording:
     """A copy of rec whose drive ran on other timing than read off its voltage record:
     the reset's switches (all but the last) `shift` seconds later and stretched by
     (1 + clock) about the first one (its generator's clock `clock` slower than the
@@ -796,17 +802,21 @@ def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: 
     1 kHz record of a few switches cannot show it (8 switches of a 2 Hz train drift by
     0.6 ms in all at 3.5e-4, less than a sample), nor a switch within its sample, and the
     zipping each switch starts moves at ~1 m/s (the diagnosis fits them from the stroke:
-    diagnosis/timing.py)."""
-    if rec.switches is None or len(rec.switches) == 0:
+    diagnosis/timing.py). `gain`: the voltage monitor read (1 + gain) times the drive (its
+    calibration), so the drive's levels are the read ones / (1 + gain)."""
+    if not gain > -1.0:
+        raise RecordingError(f"{rec.name}: a voltage monitor's gain error of {gain:g}; expected > -1")
+    if (rec.switches is None or len(rec.switches) == 0) and gain == 0.0 or not rec.levels:
         return replace(rec)
-    sw = rec.switches.copy()
+    sw = np.array([]) if rec.switches is None else rec.switches.copy()
     if len(sw) > 1:
         sw[:-1] = sw[0] + shift + (sw[:-1] - sw[0]) * (1.0 + clock)
-    sw[-1] += hold_shift
-    if not (np.all(np.diff(sw) > 0) and 0.0 < sw[0] and sw[-1] < rec.duration):
+    if len(sw):
+        sw[-1] += hold_shift
+    if len(sw) and not (np.all(np.diff(sw) > 0) and 0.0 < sw[0] and sw[-1] < rec.duration):
         raise RecordingError(f"{rec.name}: the drive's timing corrected by {shift:g} s, {clock:g} and {hold_shift:g} s "
                              f"puts its switches out of order or outside the recording; expected small corrections")
-    out = replace(rec, switches=sw, notes=list(rec.notes))
+    out = replace(rec, switches=sw, levels=tuple(v / (1.0 + gain) for v in rec.levels), notes=list(rec.notes))
     _drive(out)
     return out
 
