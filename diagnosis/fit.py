@@ -64,9 +64,10 @@ NUISANCES = 3       # unknowns per recording: its resistivity factor, sensor zer
 # shrinking a trust region the model's integration roughness would not let it cross)
 XTOL = 1e-5
 PIN = 30.0           # weight of the zero-sum pin on the factors, against one factor's prior
-GAIN_PIN = 1e3       # weight of each condition's zero-sum pin on its voltage monitors' gains (timing.GAIN_PRIOR):
+GAIN_PIN = 1e4       # weight of each condition's zero-sum pin on its voltage monitors' gains (timing.GAIN_PRIOR):
 #                      a constraint (at PIN, a condition's data pulled its three gains to +0.3 % together, a
-#                      stiffness's share)
+#                      stiffness's share; at 1e3, two gains of 0.03 % and -0.02 % at 0.5 um noise still summed to
+#                      0.014 %)
 DENSE_MAX = 4_000_000  # Jacobian entries up to which it is dense (32 MB)
 # the integrator's tolerance in fits: the model's output moves in small jumps as its
 # adaptive steps change with the parameters, and at the default 1e-4 those jumps put
