@@ -64,10 +64,6 @@ NUISANCES = 3       # unknowns per recording: its resistivity factor, sensor zer
 # shrinking a trust region the model's integration roughness would not let it cross)
 XTOL = 1e-5
 PIN = 30.0           # weight of the zero-sum pin on the factors, against one factor's prior
-GAIN_PIN = 1e4       # weight of each condition's zero-sum pin on its voltage monitors' gains (timing.GAIN_PRIOR):
-#                      a constraint (at PIN, a condition's data pulled its three gains to +0.3 % together, a
-#                      stiffness's share; at 1e3, two gains of 0.03 % and -0.02 % at 0.5 um noise still summed to
-#                      0.014 %)
 DENSE_MAX = 4_000_000  # Jacobian entries up to which it is dense (32 MB)
 # the integrator's tolerance in fits: the model's output moves in small jumps as its
 # adaptive steps change with the parameters, and at the default 1e-4 those jumps put
@@ -330,16 +326,6 @@ class Problem:
         self.prior = np.array([v for q in priors for v in q.values()], float)
         self.toffs = np.concatenate([[0], np.cumsum([len(k) for k in self.keys])]).astype(int)
         self.T = int(self.toffs[-1])
-        # the voltage monitors' gains pinned to a zero sum within each condition: a gain
-        # explains how a recording differs from its repetitions; what a condition's
-        # recordings share is the physics' to explain (free per recording, 0.5 % gains took
-        # up a stiffness whole: k = 17 N/m fitted to 19 with the held-out error unchanged)
-        groups = {}
-        for j, r in enumerate(recs):
-            if "gain" in self.keys[j]:
-                groups.setdefault(r.condition(), []).append(self.toffs[j] + self.keys[j].index("gain"))
-        self.gpins = [np.array(ix, int) for ix in groups.values() if len(ix) > 1]
-        self.G = len(self.gpins)
 
     def flat_timing(self, timing: dict | None):
         """The flat tz of {recording: {key: value}} (FitResult.timing; a nuisance it lacks
@@ -376,23 +362,10 @@ class Problem:
         The integrator's tolerance is at most rtol."""
         return self.runner(self.jobs(p, deltas, rtol, tz))
 
-    @property
-    def rows(self) -> int:
-        """Residual rows: samples, factors' priors, their pin, timing priors, gains' pins."""
-        return self.n + self.R + self.pin + self.T + self.G
-
-    def gain_pins(self, tz) -> np.ndarray:
-        """Each condition's gains' sum over their prior, weighted by GAIN_PIN."""
-        if tz is None:
-            return np.zeros(self.G)
-        tz = np.asarray(tz, float)
-        return np.array([GAIN_PIN * np.sum(tz[ix] / self.prior[ix]) for ix in self.gpins])
-
     def residuals(self, xs, deltas, tz=None) -> np.ndarray:
-        n, R, T = self.n, self.R, self.T
-        out = np.empty(self.rows)
-        out[n + R + self.pin:n + R + self.pin + T] = 0.0 if tz is None else np.asarray(tz, float) / self.prior
-        out[n + R + self.pin + T:] = self.gain_pins(tz)
+        n, R = self.n, self.R
+        out = np.empty(n + R + self.pin + self.T)
+        out[n + R + self.pin:] = 0.0 if tz is None else np.asarray(tz, float) / self.prior
         for j, (r, xm) in enumerate(zip(self.recs, xs)):
             sl = slice(self.offs[j], self.offs[j + 1])
             if isinstance(xm, str):
@@ -431,7 +404,7 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     # the iterative solver (LSMR) resolved the directions the data pin and neglected the
     # flat ones the priors alone curve (a common level against every recording's factor),
     # so the search stopped short in them
-    dense = prob.rows * (k + R + T) <= DENSE_MAX
+    dense = (n + R + pin + T) * (k + R + T) <= DENSE_MAX
 
     def simulate_many(xps):
         # several points' runs in one batch: the executor's workers stay busy across them
@@ -524,12 +497,8 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
                 rows += [np.arange(offs[j], offs[j + 1]), [n + R + pin + i]]
                 cols += [np.full(offs[j + 1] - offs[j], k + R + i), [k + R + i]]
                 vals += [d[offs[j]:offs[j + 1]] / steps[j], [1.0 / prob.prior[i]]]
-        for c, ix in enumerate(prob.gpins):
-            rows.append(np.full(len(ix), n + R + pin + T + c))
-            cols.append(k + R + ix)
-            vals.append(GAIN_PIN / prob.prior[ix])
         J = csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                       shape=(prob.rows, k + R + T))
+                       shape=(n + R + pin + T, k + R + T))
         return J.toarray() if dense else J
 
     with np.errstate(all="ignore"):

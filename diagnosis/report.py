@@ -184,15 +184,11 @@ def conclusion(D) -> str:
     else:
         parts.append("no missing physics found")
     parts += raised_phrases(D.raised)
-    timed = {r: tm for r, tm in D.final.timing.items() if set(tm) - {"gain"}}
+    timed = D.final.timing
     if timed:
         parts.append(f"the drive's timing was fitted with the model in {len(timed)} of {len(D.dataset.recordings)} "
                      f"recordings (their resets' switches or hold starts, read off the voltage record to within a "
                      f"sample: drive_timing)")
-    gains = [tm["gain"] for tm in D.final.timing.values() if "gain" in tm]
-    if gains:
-        parts.append(f"each voltage monitor's gain was fitted against its condition's other recordings (up to "
-                     f"{max(abs(g) for g in gains):.2%} off; a zero sum within each condition: drive_timing)")
     r = D.resolution
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "

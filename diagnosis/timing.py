@@ -12,14 +12,6 @@ Such a recording's timing (and a gridded reset's hold start) is fitted with the 
 every fit (fit._solve), like its resistivity factor: the reset's `shift`, its generator's
 `clock` and the hold's start `hold_shift` (recordings.retimed), with priors from how each
 was read (nuisances()).
-
-So is its voltage monitor's gain (`gain`, prior GAIN_PRIOR): the drive's levels are read
-off a monitor whose calibration is off by a few tenths of a percent, and the electrostatic
-force goes as V^2. On the lab rig (0.2 % gain error per recording) under unipolar pulses a
-stiffness (k = 17 N/m) fitted to k = 12.6 and cut the held-out error by 4 % (3.68 ->
-3.54 um against 1.17 um noise): per-recording stroke offsets of +-5 um during the pulses,
-of either sign between repetitions. The same dataset without the gain error: k = 17.1,
-2.15 -> 1.48 um.
 Fitted once on the baseline instead, it took up what a missing entry does right after a
 switch (a mass's lag: inertia then left 11.9 um held out on a trial dataset against 4.3
 with the timing as read; a series resistance's charging delay: R_s 8.2e5 for 1e6)."""
@@ -32,10 +24,7 @@ GRID_PINNED = 20       # a reset put on a grid (recordings._regular_switches) by
 #                        timing pinned (a line through n switches, each read within its sample, ends ~dt sqrt(1/3n)
 #                        off: 0.04 ms for a 30 Hz reset of 3 s, 0.3 ms for a 4 Hz one of 1 s)
 CLOCK_PRIOR = 1e-3     # prior SD of a drive's clock rate error (relative)
-GAIN_PRIOR = 5e-3      # prior SD of a voltage monitor's gain error (relative): high-voltage monitors and dividers
-#                        are specified to 0.1-1 %
-STEPS = {"shift": 5e-5, "clock": 1e-4, "hold_shift": 5e-5, "gain": 1e-3}   # difference steps (s, relative, s,
-#                                                                               relative)
+STEPS = {"shift": 5e-5, "clock": 1e-4, "hold_shift": 5e-5}   # difference steps (s, relative, s)
 BOUND = 5.0            # each nuisance within this many prior SDs
 
 
@@ -52,17 +41,15 @@ def nuisances(rec) -> dict:
     fresh trial's unipolar null: a 500 um spike at it, 5.94 -> 5.18 um held out with it
     fitted; fitted once on the baseline rather than in every fit, it had taken up part of a
     series resistance's charging delay). A single switch's timing is the recording's time
-    shift (fit.align). Every recording with a drive read off its voltage has its monitor's
-    gain (GAIN_PRIOR)."""
-    gain = {"gain": GAIN_PRIOR} if rec.levels else {}
+    shift (fit.align)."""
     n = 0 if rec.switches is None else len(rec.switches)
     if n < 2:
-        return gain
+        return {}
     sd = rec.dt / math.sqrt(12.0)
     if rec.gridded and n - 1 >= GRID_PINNED:
-        return {"hold_shift": sd, **gain}
+        return {"hold_shift": sd}
     out = {"shift": sd}
     if n - 1 >= CLOCK_MIN_SWITCHES:
         out["clock"] = CLOCK_PRIOR
     out["hold_shift"] = sd
-    return {**out, **gain}
+    return out

@@ -792,8 +792,7 @@ def _drive(rec: Recording) -> None:
     rec.protocol = Protocol(stages)
 
 
-def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: float = 0.0,
-            gain: float = 0.0) -> Recording:
+def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: float = 0.0) -> Recording:
     """A copy of rec whose drive ran on other timing than read off its voltage record:
     the reset's switches (all but the last) `shift` seconds later and stretched by
     (1 + clock) about the first one (its generator's clock `clock` slower than the
@@ -802,21 +801,17 @@ def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: 
     1 kHz record of a few switches cannot show it (8 switches of a 2 Hz train drift by
     0.6 ms in all at 3.5e-4, less than a sample), nor a switch within its sample, and the
     zipping each switch starts moves at ~1 m/s (the diagnosis fits them from the stroke:
-    diagnosis/timing.py). `gain`: the voltage monitor read (1 + gain) times the drive (its
-    calibration), so the drive's levels are the read ones / (1 + gain)."""
-    if not gain > -1.0:
-        raise RecordingError(f"{rec.name}: a voltage monitor's gain error of {gain:g}; expected > -1")
-    if (rec.switches is None or len(rec.switches) == 0) and gain == 0.0 or not rec.levels:
+    diagnosis/timing.py)."""
+    if rec.switches is None or len(rec.switches) == 0:
         return replace(rec)
-    sw = np.array([]) if rec.switches is None else rec.switches.copy()
+    sw = rec.switches.copy()
     if len(sw) > 1:
         sw[:-1] = sw[0] + shift + (sw[:-1] - sw[0]) * (1.0 + clock)
-    if len(sw):
-        sw[-1] += hold_shift
-    if len(sw) and not (np.all(np.diff(sw) > 0) and 0.0 < sw[0] and sw[-1] < rec.duration):
+    sw[-1] += hold_shift
+    if not (np.all(np.diff(sw) > 0) and 0.0 < sw[0] and sw[-1] < rec.duration):
         raise RecordingError(f"{rec.name}: the drive's timing corrected by {shift:g} s, {clock:g} and {hold_shift:g} s "
                              f"puts its switches out of order or outside the recording; expected small corrections")
-    out = replace(rec, switches=sw, levels=tuple(v / (1.0 + gain) for v in rec.levels), notes=list(rec.notes))
+    out = replace(rec, switches=sw, notes=list(rec.notes))
     _drive(out)
     return out
 
