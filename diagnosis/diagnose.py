@@ -16,8 +16,8 @@ catalog and the nominal values.
    whatever was kept: where (the final model's systematic windows), how large, and how
    far every tried entry got; "no missing physics found" only when the baseline reaches
    the noise. Before any of it, kept physics must beat the model's own discretization
-   error: refitted at twice the elements (_resolution_check), physics keeps its gain over
-   the baseline; an entry whose gain falls away only absorbed resolution error: it is
+   error: at twice the elements (_resolution_check; the kept fit's values evaluated there
+   first, refitted where a check needs it), physics keeps its gain over the baseline; an entry whose gain falls away only absorbed resolution error: it is
    dropped and the finer baseline is the final model.
 5. Nothing held out (a single condition, or a holdout of none): the rounds still run, on
    the training data alone (BIC), but what they keep is never applied - no nominal value
