@@ -359,9 +359,10 @@ class Surrogate:
         outputs stroke (m), current_no_ramp (A), capacitance (F); states `state_names`.
 
         scaled=True (default): each state is its SI value over state_scale(V_ref), so
-        control.input_output_response at its default tolerances is accurate (unscaled, a
-        charge of 1e-5 C/m^2 sits below the default atol and the stroke came out 16-48 um
-        off). `current_no_ramp` is the source current at a constant input voltage (the
+        no state sits below control.input_output_response's default atol (unscaled, a
+        charge of 1e-5 C/m^2 does: the stroke came out 54-69 um off on 6 kV DC, scaled
+        11-45 um, which of the two depending on the sampling grid); for accuracy pass
+        solve_ivp_kwargs={'rtol': 1e-6} (within 0.02 um). `current_no_ramp` is the source current at a constant input voltage (the
         motion and conduction currents; behind R_s, (V - V_d)/R_s, the whole source
         current): without R_s, a ramping source also delivers capacitance * dV/dt, which
         a system whose inputs carry no derivative cannot know. Units: the returned
