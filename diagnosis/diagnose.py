@@ -17,8 +17,9 @@ catalog and the nominal values.
    far every tried entry got; "no missing physics found" only when the baseline reaches
    the noise. Before any of it, kept physics must beat the model's own discretization
    error: at twice the elements (_resolution_check; the kept fit's values evaluated there
-   first, refitted where a check needs it), physics keeps its gain over the baseline; an entry whose gain falls away only absorbed resolution error: it is
-   dropped and the finer baseline is the final model.
+   first, refitted where a check needs it), physics keeps its gain over the baseline; an
+   entry whose gain falls away only absorbed resolution error: it is dropped and the finer
+   baseline is the final model.
 5. Nothing held out (a single condition, or a holdout of none): the rounds still run, on
    the training data alone (BIC), but what they keep is never applied - no nominal value
    is corrected and no physics named without held-out evidence. The entries are the
@@ -572,10 +573,11 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
     entry was fitted on top of (_last_entry_check); `refits`: [(a fit, its refit at
     fine_N)] that _raise_kept made, reused where a check needs the same refit. The kept
     model at fine_N is first its fit's values evaluated there (_KeptFine): refitted only
-    when a check does not pass on that point, or to be the final model. The check assumes the finer
-    model is nearer the data; when the finer baseline fits no better (RES_PREMISE), the data share the model's own grid
-    (synthetic data made at this N: then the coarse model is exact and the finer one off by
-    its discretization error) and the check is inconclusive: what was kept stands.
+    when a check does not pass on that point, or to be the final model. The check assumes
+    the finer model is nearer the data; when the finer baseline fits no better
+    (RES_PREMISE), the data share the model's own grid (synthetic data made at this N: then
+    the coarse model is exact and the finer one off by its discretization error) and the
+    check is inconclusive: what was kept stands.
     Returns (kept, final, the check's record)."""
     N = base.N
     Nf = fine_N(N)
@@ -595,7 +597,7 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
         inconclusive = _error(ff) >= RES_PREMISE * _error(f0)
         kf = _KeptFine(dataset, pk, ctx, kept, current, holdout, executor, refits)
     except Exception as exc:       # the check cannot run: say so, keep what was found
-        return kept, current, {"N": N, "N_fine": Nf, "error": f"{type(exc).__name__}: {exc}", "resolution_only": False}
+        return kept, current, _cannot_run(N, Nf, exc)
     measure = "held-out" if ff.heldout_rmse is not None else "training"
     if inconclusive:
         rec = {"N": N, "N_fine": Nf, "measure": measure, "baseline_rmse": _error(f0), "baseline_fine_rmse": _error(ff),
@@ -615,7 +617,7 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
     try:
         holds, fk = _holds(kf, ff, gain)
     except Exception as exc:       # the kept model cannot be refitted at the finer N: say so, keep what was found
-        return kept, current, {"N": N, "N_fine": Nf, "error": f"{type(exc).__name__}: {exc}", "resolution_only": False}
+        return kept, current, _cannot_run(N, Nf, exc)
     gain_fine = 1.0 - _error(fk) / _error(ff)
     only = not holds
     rec = {"N": N, "N_fine": Nf, "measure": measure,
@@ -652,6 +654,11 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
         p, spec = _prepared(fb, nominal_kept, ctx)
         final = fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=current, max_nfev=CANDIDATE_NFEV)
     return nominal_kept, final, rec
+
+
+def _cannot_run(N, Nf, exc) -> dict:
+    """The resolution check's record when it cannot run: what was kept stands."""
+    return {"N": N, "N_fine": Nf, "error": f"{type(exc).__name__}: {exc}", "resolution_only": False}
 
 
 def _spec(p, ctx, entries) -> list:

@@ -576,23 +576,33 @@ def evaluate(dataset, fr: FitResult, params: Parameters, executor=None) -> FitRe
     jobs = [pb.jobs(params, d, tz=tz) for pb, d, tz in zip(probs, deltas, tzs)]
     runs = runner(jobs[0] + jobs[1])
     xs = [runs[:len(jobs[0])], runs[len(jobs[0]):]]
-    simulated, offsets, shifts, sq = {}, {}, {}, [[0.0, 0], [0.0, 0]]
-    for part, rs in enumerate((train, held)):
-        for r, xm in zip(rs, xs[part]):
-            if isinstance(xm, str):
-                raise FitError(f"{r.name}: the model does not run at N = {params.N} ({xm})")
-            simulated[r.name], offsets[r.name], shifts[r.name] = align(r.stroke, xm, fr.sigma)
-            e = r.stroke - simulated[r.name]
-            sq[part][0] += float(e @ e)
-            sq[part][1] += e.size
+    simulated, offsets, shifts, train_rmse, heldout_rmse = _aligned(train, xs[0], held, xs[1], fr.sigma,
+                                                                    f"the model does not run at N = {params.N}")
     res = probs[0].residuals(xs[0], deltas[0], tzs[0])
     r_fit = res[:probs[0].n]
     return replace(fr, params=params, offsets=offsets, time_shifts=shifts, simulated=simulated,
-                   train_rmse=math.sqrt(sq[0][0] / sq[0][1]),
-                   heldout_rmse=math.sqrt(sq[1][0] / sq[1][1]) if held else None,
+                   train_rmse=train_rmse, heldout_rmse=heldout_rmse,
                    rss=float(r_fit @ r_fit) * fr.sigma ** 2, cost=0.5 * float(res @ res),
                    wall_time=time.perf_counter() - wall, runs=runner.runs, lsq=None, converged=False,
                    notes=[f"evaluated at N = {params.N} with the fit's values and nuisances, not refitted"])
+
+
+def _aligned(train, xs, held, xs_h, sigma, fails: str) -> tuple:
+    """Each recording's model stroke as its sensor saw it (align), training and held out:
+    (simulated, offsets, time shifts, training RMSE, held-out RMSE or None without held-out
+    recordings), over every sample. A run that failed (a message) raises FitError:
+    `fails` says what did not run."""
+    simulated, offsets, shifts = {}, {}, {}
+    sq = {"train": [0.0, 0], "held": [0.0, 0]}
+    for r, xm, part in [(r, xm, "train") for r, xm in zip(train, xs)] + [(r, xm, "held") for r, xm in zip(held, xs_h)]:
+        if isinstance(xm, str):
+            raise FitError(f"{r.name}: {fails} ({xm})")
+        simulated[r.name], offsets[r.name], shifts[r.name] = align(r.stroke, xm, sigma)
+        e = r.stroke - simulated[r.name]
+        sq[part][0] += float(e @ e)
+        sq[part][1] += e.size
+    return (simulated, offsets, shifts, math.sqrt(sq["train"][0] / sq["train"][1]),
+            math.sqrt(sq["held"][0] / sq["held"][1]) if held else None)
 
 
 def _condition_of(dataset, c) -> tuple:
@@ -661,21 +671,13 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
         timing.update({r.name: tm for r, tm in zip(held, prob_h.timing(sol_h.x[len(held):])) if tm})
     else:
         xs_h = []
-    simulated, offsets, shifts = {}, {}, {}
-    sq = {"train": [0.0, 0], "held": [0.0, 0]}
-    for r, xm, part in [(r, xm, "train") for r, xm in zip(train, xs)] + [(r, xm, "held") for r, xm in zip(held, xs_h)]:
-        if isinstance(xm, str):
-            raise FitError(f"{r.name}: the fitted model does not run ({xm})")
-        simulated[r.name], offsets[r.name], shifts[r.name] = align(r.stroke, xm, sigma)
-        e = r.stroke - simulated[r.name]
-        sq[part][0] += float(e @ e)
-        sq[part][1] += e.size
+    simulated, offsets, shifts, train_rmse, heldout_rmse = _aligned(train, xs, held, xs_h, sigma,
+                                                                    "the fitted model does not run")
     rss = float(np.sum(r_fit ** 2)) * sigma ** 2
     return FitResult(spec=list(spec), base=base, params=fitted, values=values, stderr=stderr, sigma=sigma,
                      train=[r.name for r in train], heldout=[r.name for r in held], rho_factors=factors,
                      offsets=offsets, time_shifts=shifts, simulated=simulated,
-                     train_rmse=math.sqrt(sq["train"][0] / sq["train"][1]),
-                     heldout_rmse=math.sqrt(sq["held"][0] / sq["held"][1]) if held else None, rss=rss, n=n,
+                     train_rmse=train_rmse, heldout_rmse=heldout_rmse, rss=rss, n=n,
                      k=k + NUISANCES * R + T, cost=float(sol.cost), wall_time=time.perf_counter() - wall, runs=runner.runs,
                      notes=notes, cov_z=cov[:k, :k].copy(), z=np.array(x[:k]), lsq=lsq, timing=timing,
                      converged=bool(sol.success))
