@@ -359,12 +359,16 @@ class Surrogate:
         outputs stroke (m), current_no_ramp (A), capacitance (F); states `state_names`.
 
         scaled=True (default): each state is its SI value over state_scale(V_ref), so
-        no state sits below control.input_output_response's default atol (unscaled, a
-        charge of 1e-5 C/m^2 does: the stroke came out 54-69 um off on 6 kV DC, scaled
-        11-45 um, which of the two depending on the sampling grid); for accuracy pass
-        solve_ivp_kwargs={'rtol': 1e-6} (within 0.02 um). `current_no_ramp` is the source current at a constant input voltage (the
-        motion and conduction currents; behind R_s, (V - V_d)/R_s, the whole source
-        current): without R_s, a ramping source also delivers capacitance * dV/dt, which
+        no state sits below solve_ivp's default atol. The system is stiff (the stroke's
+        pole ~ -345 1/s, the charges' 1e-4 to 0.1 1/s): solve it with
+        solve_ivp_method='LSODA' (within 0.11 um on 6 kV DC at default tolerances, 5x
+        faster than RK45); python-control's default RK45 is 11-45 um off there (1-4 %,
+        its chatter at the stability limit rectified by the front's renewal), or pass
+        solve_ivp_kwargs={'rtol': 1e-6}. A tolerance is no stability verdict for a closed
+        loop (docs/guide/surrogates.md).
+
+        `current_no_ramp` is the source current at a constant input voltage (the motion
+        and conduction currents; behind R_s, (V - V_d)/R_s, the whole source current): without R_s, a ramping source also delivers capacitance * dV/dt, which
         a system whose inputs carry no derivative cannot know. Units: the returned
         system's `units` (signals) and `state_units` (SI) attributes.
 
