@@ -198,14 +198,16 @@ def conclusion(D) -> str:
         gone = [m for m in r.get("marginal", []) if m["dropped"] and not m.get("later")]
         later = [m for m in r.get("marginal", []) if m["dropped"] and m.get("later")]
         for m in later:
+            at = m.get("N_check", r["N_fine"])
             parts.append(f"{m['entry']} dropped: on top of the entries kept after it it cut the {r['measure']} error "
-                         f"by {m['gain_fine']:.0%} at N = {r['N_fine']}, short of acceptance: they explain what it "
-                         f"took up")
+                         f"by {m['gain_fine']:.0%} at N = {at}, short of acceptance: they explain what it took up"
+                         + (f" (the final model is the rest at N = {at})" if at != r["N_fine"] else ""))
         if gone:
             cuts = ", ".join(f"{m['entry']} cut the {r['measure']} error by {m['gain']:.0%} on top of the rest at "
-                             f"N = {r['N']}, by {m['gain_fine']:.0%} at N = {r['N_fine']}" for m in gone)
+                             f"N = {r['N']}, by {m['gain_fine']:.0%} at N = {m.get('N_check', r['N_fine'])}" for m in gone)
             parts.append(f"{', '.join(m['entry'] for m in gone)} dropped ({cuts}): it took up the model's "
-                         f"discretization error, not physics; the final model is the rest at N = {r['N_fine']}")
+                         f"discretization error, not physics; the final model is the rest at N = "
+                         f"{r.get('N_final', r['N_fine'])}")
         elif not later:
             parts.append(f"the final model is at N = {r['N_fine']} (N = {r['N']} left its own discretization error: "
                          f"{r['kept_rmse'] * 1e6:.3g} um {r['measure']} RMSE against "

@@ -352,6 +352,50 @@ def test_an_entry_kept_before_others_must_hold_on_top_of_them(monkeypatch):
             assert kept == [spring, eps, branch] and rec["dropped_marginal"] == [] and final is current
 
 
+def test_an_entry_is_checked_deeper_when_the_rest_is_not_resolved(monkeypatch):
+    """_deeper: on the lab rig an Eq. (21) law kept before inertia cut 37 % on top of
+    inertia at N = 41 (2.70 -> 1.71 um, 1.26 um noise) and nothing at N = 81 (1.37 ->
+    1.36 um): inertia alone was not resolved at 41 (its values gave 6.69 um at N = 21).
+    Such an entry is checked again at twice the elements and dropped there; when the rest
+    is resolved (its values at N = 21 within 1/RAISE_GAIN of its error) the check at 41
+    stands, and with no doublings left (budget 0) it stands too. Fits stubbed."""
+    import importlib
+    from types import SimpleNamespace as NS
+    dg = importlib.import_module("diagnosis.diagnose")
+    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
+    monkeypatch.setattr(dg, "_without", lambda drop, kept, fitted, base, ctx: (base, []))
+    law = NS(kind="physics", key="field_dependent_resistivity (Eq. 21)", spec=lambda p, ctx: [])
+    inertia = NS(kind="physics", key="inertia", spec=lambda p, ctx: [])
+    res = partial(_stubbed_fit, sigma=1.26e-6)
+    base = preset("vshape-table1").replace(N=21)
+    f0, before, current = res(8.83e-6, 0.0, 21), res(6.98e-6, -9000.0, 21), res(2.02e-6, -48000.0, 21)
+    for inertia_at_21, budget, dropped in ((6.69e-6, 2, True), (2.9e-6, 2, False), (6.69e-6, 0, False)):
+        evaluated = []
+
+        def point(dataset, fr, params, executor=None):
+            evaluated.append((round(fr.heldout_rmse * 1e8), params.N))
+            err = {(202, 41): 1.71e-6, (650, 21): 7.0e-6, (270, 21): inertia_at_21, (171, 81): 1.40e-6}
+            return res(err[(round(fr.heldout_rmse * 1e8), params.N)], -59000.0 if params.N == 81 else -60000.0,
+                       params.N)
+        monkeypatch.setattr(dg, "evaluate", point)
+        fits = iter([res(7.25e-6, 0.0, 41), res(6.50e-6, -20000.0, 41), res(2.70e-6, -55000.0, 41)]
+                    + ([res(1.37e-6, -60000.0, 81), res(1.36e-6, -60005.0, 81)] if dropped
+                       else [res(1.70e-6, -60001.0, 41)]))
+        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        kept, final, rec = dg._resolution_check(None, base, None, [law, inertia], current, f0, None, None,
+                                                lambda s: None, before=before, budget=budget)
+        law_rec = [m for m in rec["marginal"] if m["entry"] == law.key][0]
+        if dropped:
+            assert kept == [inertia] and rec["dropped_marginal"] == [law.key]
+            assert law_rec["N_check"] == 81 and law_rec["rmse_without"] == 1.37e-6
+            assert final.heldout_rmse == 1.37e-6 and final.params.N == 81 and rec["N_final"] == 81
+            assert (171, 81) in evaluated            # the kept model's point at 81 was tried first
+        else:
+            assert kept == [law, inertia] and rec["dropped_marginal"] == [] and "N_check" not in law_rec
+            assert all(n != 81 for _, n in evaluated)
+            assert ((270, 21) in evaluated) == (budget > 0)   # no doublings left: not even evaluated
+
+
 def test_raised_steps_are_told_before_the_selection_and_after_an_entry():
     """report.md's conclusion and improved.toml tell each run of raises: before the
     selection (the baseline's error) or after a kept entry (the kept model's)."""
