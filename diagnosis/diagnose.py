@@ -12,8 +12,7 @@ catalog and the nominal values.
    physics; a kept nominal correction a parameter error (reported under
    corrected_parameters).
 4. The verdict: "unexplained mismatch" when the final model leaves the held-out RMSE
-   (the training RMSE when nothing is held out) at UNEXPLAINED sensor noises or more,
-   whatever was kept: where (the final model's systematic windows), how large, and how
+   or the training RMSE at UNEXPLAINED sensor noises or more, whatever was kept: where (the final model's systematic windows), how large, and how
    far every tried entry got; "no missing physics found" only when the baseline reaches
    the noise. Before any of it, kept physics must beat the model's own discretization
    error: at twice the elements (_resolution_check; the kept fit's values evaluated there
@@ -141,9 +140,23 @@ class Diagnosis:
         return (f.heldout_rmse, "held-out") if f.heldout_rmse is not None else (f.train_rmse, "training")
 
     @property
+    def unexplained_by(self) -> tuple | None:
+        """(stroke RMSE (m), 'held-out' or 'training') that makes the mismatch unexplained,
+        or None: the residual's error at UNEXPLAINED sensor noises or more, else the
+        training error there. A held-out condition between the trained ones can reach the
+        noise while the model misses the trained ones: a stiffness of 44 N/m under loads
+        of 2, 6 and 7 N, the 6 N held out, left the baseline at 1.16 noises held out and
+        10 in training ("no missing physics found" before)."""
+        for rmse, kind in (self.residual, (self.final.train_rmse, "training")):
+            if rmse is not None and rmse >= UNEXPLAINED * self.final.sigma:
+                return rmse, kind
+        return None
+
+    @property
     def unexplained(self) -> bool:
-        """The final model leaves UNEXPLAINED sensor noises or more (module docstring)."""
-        return self.residual[0] >= UNEXPLAINED * self.final.sigma
+        """The final model leaves UNEXPLAINED sensor noises or more, held out or in
+        training (module docstring, unexplained_by)."""
+        return self.unexplained_by is not None
 
     def remaining_windows(self) -> list:
         """The systematic windows the final model leaves."""
@@ -204,6 +217,15 @@ def shortlist(screens: dict, strong: bool = False) -> list:
 def _entry_prediction(screens: dict, key: str) -> float:
     """The best predicted BIC change among the forms of key's entry."""
     return min(s["predicted_delta_bic"] for k, s in screens.items() if _name(k) == _name(key))
+
+
+def _worst_error(f) -> float:
+    """The larger of a fit's held-out and training errors: a held-out condition between
+    the trained ones can sit near the noise while the trained ones are far off (a
+    stiffness of 44 N/m under loads of 2, 6 and 7 N, the 6 N held out: 1.16 noises held
+    out, 10 in training with a rest stretch recorded, 2.1 without; its screen predicted a
+    BIC fall of 87660 and it was not fitted)."""
+    return max(_error(f), f.train_rmse)
 
 
 def _near_noise(f) -> bool:
@@ -276,7 +298,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                     ev[e.key] = {"screen": sc, "fitted": False}
                 best_fall = 0.0      # the best BIC fall so far this round of an accepted candidate that
                 #                      leaves the held-out error near the noise (nothing a rival could do much better)
-                strong = _error(current) >= STRONG_ERROR * current.sigma
+                strong = _worst_error(current) >= STRONG_ERROR * current.sigma
                 weak = set(shortlist(screens)) if strong else None     # shortlisted on their own screens
                 for key in shortlist(screens, strong):
                     e, p = prepared[key]

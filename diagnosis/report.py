@@ -171,10 +171,13 @@ def conclusion(D) -> str:
     corr = [e.name.split(":", 1)[1] for e in D.corrections]
     parts = []
     if D.unexplained:
-        rmse, kind = D.residual
+        rmse, kind = D.unexplained_by
         who = "the final model (the baseline: no change verified)" if D.unverified else "the best model"
+        held = D.final.heldout_rmse
+        also = (f" (held out {held * 1e6:.3g} um: the held-out condition lies between the trained ones)"
+                if kind == "training" and held is not None else "")
         parts.append(f"unexplained mismatch: {who} leaves a {kind} stroke RMSE of {rmse * 1e6:.3g} um, "
-                     f"{rmse / D.final.sigma:.1f}x the sensor noise")
+                     f"{rmse / D.final.sigma:.1f}x the sensor noise{also}")
         if phys:
             parts.append("missing physics found, explaining part of it: " + ", ".join(phys))
     elif phys:
@@ -259,7 +262,7 @@ def unexplained(D) -> dict | None:
     entry got."""
     if not D.unexplained:
         return None
-    rmse, kind = D.residual
+    rmse, kind = D.unexplained_by
     return {"rmse": rmse, "measure": kind, "sensor_noise": D.final.sigma, "ratio": rmse / D.final.sigma,
             "model": " + ".join(["baseline"] + [e.key for e in D.kept]),
             "windows": [w.to_dict() for w in D.remaining_windows()], "tried": tried(D)}
@@ -506,15 +509,17 @@ def to_markdown(D, report: dict, plots: dict) -> str:
                   for w in un["windows"]]
         else:
             L.append("No single window stands out: the error is spread over the recordings.")
-        L += ["", "How far each tried entry got:", "", "| candidate | fitted | held-out RMSE (um) | delta BIC | note |",
-              "|---|---|---|---|---|"]
+        L += ["", "How far each tried entry got:", "",
+              "| candidate | fitted | training RMSE (um) | held-out RMSE (um) | delta BIC | note |",
+              "|---|---|---|---|---|---|"]
         for k, t in un["tried"].items():
             if t["fitted"]:
-                L.append(f"| {k} | round {t['round']} | {um(t['heldout_rmse'])} | {t['delta_bic']:+.1f} | |")
+                L.append(f"| {k} | round {t['round']} | {um(t['train_rmse'])} | {um(t['heldout_rmse'])} | "
+                         f"{t['delta_bic']:+.1f} | {t.get('stopped', '')} |")
             else:
                 r = t["predicted_heldout_ratio"]
                 pred = "" if r is None else f"first step predicted held-out x{r:.2f}; "
-                L.append(f"| {k} | no | - | - | {pred}{t['why']} |")
+                L.append(f"| {k} | no | - | - | - | {pred}{t['why']} |")
     L += ["", "## Candidates", ""]
     L += ["Each candidate is first screened (a score test: the BIC change a first fitting step predicts); the "
           "shortlisted ones are fitted in full.", ""]

@@ -183,6 +183,36 @@ def test_a_strong_screen_is_fitted_while_the_mismatch_is_large():
     assert STRONG_ERROR <= UNEXPLAINED
 
 
+def test_a_training_error_far_above_the_noise_is_unexplained():
+    """A held-out condition between the trained ones can reach the noise while the model
+    misses the trained ones (a stiffness of 44 N/m under loads of 2, 6 and 7 N, the 6 N
+    held out: 3.05 um held out, 27 um in training, 2.64 um noise): not "no missing
+    physics found" but an unexplained mismatch in training, and its strong screens are
+    fitted (diagnose._worst_error). Within the noise both ways: explained."""
+    import importlib
+    from types import SimpleNamespace as NS
+    from diagnosis.report import conclusion, unexplained
+    dg = importlib.import_module("diagnosis.diagnose")
+    sigma = 2.64e-6
+
+    def D(held, train):
+        f = NS(heldout_rmse=held, train_rmse=train, sigma=sigma, timing={}, heldout=["V6kV_F6N_r1"])
+        return dg.Diagnosis(dataset=NS(recordings=[]), baseline=f, final=f, kept=[], rounds=[], windows=[],
+                            trends=[], wall_time=0.0)
+    d = D(3.05e-6, 27e-6)
+    assert d.unexplained and d.unexplained_by == (27e-6, "training")
+    text = conclusion(d)
+    assert text.startswith("unexplained mismatch") and "training stroke RMSE of 27 um" in text
+    assert "held out 3.05 um" in text and "no missing physics found" not in text
+    assert unexplained(d)["measure"] == "training"
+    assert dg._worst_error(d.final) == 27e-6 >= dg.STRONG_ERROR * sigma
+    # the held-out error decides first when it is itself unexplained
+    assert D(6e-6, 27e-6).unexplained_by == (6e-6, "held-out")
+    ok = D(3.05e-6, 3.4e-6)
+    assert not ok.unexplained and conclusion(ok).startswith("no missing physics found")
+    assert dg._worst_error(ok.final) < dg.STRONG_ERROR * sigma
+
+
 def test_a_stopped_search_resumes_exactly_where_it_stopped(null):
     """A fit stopped by max_nfev and resumed (fit(resume=...)) goes on from its own end:
     its globals, its recordings' factors as they were (not less a condition's mean, as a
