@@ -104,6 +104,8 @@ def run_one(case: dict) -> dict:
             "concealed": all(h["concealed"] for h in report["headline"] if h["concealed"] is not None),
             "heldout_baseline": report["fit"]["baseline"]["heldout_rmse"],
             "heldout_improved": (report["fit"]["improved"] or {}).get("heldout_rmse"),
+            "unexplained": (report["unexplained"] or {}).get("measure"),     # None, 'held-out' or 'training'
+            "conclusion": report["conclusion"],
             "parameters": {k: v for m in report["missing_physics"] for k, v in m["parameters"].items()},
             "corrected": [k for k, v in report["corrected_parameters"].items() if v["corrected"] and k != "rho_l"],
             "wall_time": time.perf_counter() - wall}
@@ -129,6 +131,10 @@ def summarize(rows: list) -> str:
             continue
         wrong = [",".join(r["named"]) or "nothing" for r in rs if not r["right"]]
         lines.append(f"{e:30s} {len(rs):3d} {sum(r['right'] for r in rs):6d}  {'; '.join(wrong)}")
+    un = [r for r in rows if r.get("unexplained")]
+    if un:
+        lines.append(f"verdicts of unexplained mismatch: {len(un)} ("
+                     + ", ".join(f"{r['effect']}: {r['unexplained']}" for r in un) + ")")
     wt = [r["wall_time"] for r in rows]
     lines.append(f"wall time per dataset: median {np.median(wt):.0f} s, max {max(wt):.0f} s")
     return "\n".join(lines)
