@@ -70,6 +70,7 @@ def to_json(D) -> dict:
         "resolution": D.resolution,
         "resolution_first": D.raised,
         "drive_timing": D.final.timing or None,
+        "zeros_fitted": zeros_fitted(D) or None,
         "headline": headline(D),
         "trends": D.trends,
         "candidates": D.rounds,
@@ -215,6 +216,11 @@ def conclusion(D) -> str:
             parts.append(f"the final model is at N = {r['N_fine']} (N = {r['N']} left its own discretization error: "
                          f"{r['kept_rmse'] * 1e6:.3g} um {r['measure']} RMSE against "
                          f"{r['kept_fine_rmse'] * 1e6:.3g} um)")
+    blind = zeros_fitted(D)
+    if blind and len(blind) == len(D.dataset.recordings) and "stiffness" not in phys:
+        parts.append(f"the sensor zeros were fitted in all {len(blind)} recordings (the model never rests on its "
+                     f"stop in them), and they take up a constant stroke offset: a stiffness is hard to tell from "
+                     f"them - record a rest stretch at 0 V before the drive (zeros_fitted)")
     if corr:
         parts.append("nominal value(s) corrected: " + ", ".join(corr))
     if D.unverified:
@@ -253,6 +259,24 @@ def tried(D) -> dict:
                 why = ev.get("error") or ev.get("skipped") or "the screen did not shortlist it"
                 out[key] = {"fitted": False, "round": i + 1, "predicted_delta_bic": sc.get("predicted_delta_bic"),
                             "predicted_heldout_ratio": sc.get("heldout_ratio"), "why": why}
+    return out
+
+
+def zeros_fitted(D) -> list:
+    """The recordings whose sensor zero the final model fitted instead of reading it at
+    rest (fit.align: its stroke rests on the stop in fewer than REST_MIN samples). There
+    the zero takes up a constant stroke offset, the main sign of a stiffness: on the lab
+    rig under reset + hold a stiffness of 41.7 N/m was named with a 0.5 s rest stretch
+    before the drive (held out 7.01 -> 3.15 um) and missed without one (2.35 um, 1.07
+    noises: nothing to find); under unipolar pulses the stroke returns to the stop in
+    every pause and the zero is read there."""
+    from .fit import REST_MIN
+    f = D.final
+    out = []
+    for r in D.dataset.recordings:
+        sim = f.simulated.get(r.name)
+        if sim is not None and np.count_nonzero(sim - f.offsets.get(r.name, 0.0) <= 0.0) < REST_MIN:
+            out.append(r.name)
     return out
 
 

@@ -213,6 +213,36 @@ def test_a_training_error_far_above_the_noise_is_unexplained():
     assert dg._worst_error(ok.final) < dg.STRONG_ERROR * sigma
 
 
+def test_a_fitted_sensor_zero_is_told_as_blind_to_a_stiffness():
+    """Under reset + hold without a rest stretch the model never rests on its stop, so
+    each sensor zero is fitted and takes up a constant stroke offset: a stiffness of
+    41.7 N/m was missed so and named with a 0.5 s rest stretch (lab rig). The verdict
+    says so when every zero was fitted; a recording whose model rests on the stop for
+    REST_MIN samples or more reads its zero and is not listed."""
+    import importlib
+    from types import SimpleNamespace as NS
+    import numpy as np
+    from diagnosis.fit import REST_MIN
+    from diagnosis.report import conclusion, zeros_fitted
+    dg = importlib.import_module("diagnosis.diagnose")
+    t = np.arange(0, 2.0, 1e-3)
+    moving = 1e-3 * (1 - np.exp(-t / 0.01)) + 5e-6              # starts with the drive (offset 5 um)
+    rests = np.where(t < 0.1, 0.0, 1e-3) - 3e-6                  # 100 samples at rest first (offset -3 um)
+    recs = [NS(name="a"), NS(name="b")]
+
+    def D(sims):
+        f = NS(heldout_rmse=2e-6, train_rmse=2e-6, sigma=2e-6, timing={}, heldout=["b"],
+               simulated=dict(zip("ab", sims)), offsets={"a": 5e-6 if sims[0] is moving else -3e-6,
+                                                           "b": 5e-6 if sims[1] is moving else -3e-6})
+        return dg.Diagnosis(dataset=NS(recordings=recs), baseline=f, final=f, kept=[], rounds=[], windows=[],
+                            trends=[], wall_time=0.0)
+    blind = D([moving, moving])
+    assert zeros_fitted(blind) == ["a", "b"] and "a stiffness is hard to tell" in conclusion(blind)
+    half = D([moving, rests])
+    assert zeros_fitted(half) == ["a"] and "hard to tell" not in conclusion(half)
+    assert np.count_nonzero(rests + 3e-6 <= 0) >= REST_MIN
+
+
 def test_a_stopped_search_resumes_exactly_where_it_stopped(null):
     """A fit stopped by max_nfev and resumed (fit(resume=...)) goes on from its own end:
     its globals, its recordings' factors as they were (not less a condition's mean, as a
