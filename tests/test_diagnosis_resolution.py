@@ -396,6 +396,48 @@ def test_an_entry_is_checked_deeper_when_the_rest_is_not_resolved(monkeypatch):
             assert ((270, 21) in evaluated) == (budget > 0)   # no doublings left: not even evaluated
 
 
+def test_close_rivals_are_compared_at_twice_the_elements(monkeypatch):
+    """_tie_break: a slow branch beat the spline law at N = 41 by a BIC fall of 28859
+    against 27374 (lab rig, a power-law truth) and was named; at N = 81 the spline fitted
+    better. Accepted rivals of another entry within TIE_SHARE of the best's fall are
+    refitted at twice the elements and the lower BIC there is kept; a rival further off,
+    or another form of the same entry, is not refitted. Fits stubbed."""
+    import importlib
+    from types import SimpleNamespace as NS
+    dg = importlib.import_module("diagnosis.diagnose")
+    monkeypatch.setattr(dg, "_spec", lambda p, ctx, entries: [])
+    res = partial(_stubbed_fit, sigma=2.13e-6)
+    current = res(9.22e-6, 0.0, 41)
+    fits = {"polarization_branch": res(3.78e-6, -28859.0, 41),
+            "field_dependent_resistivity (spline)": res(4.20e-6, -27374.0, 41),
+            "field_dependent_resistivity (Eq. 21)": res(5.22e-6, -25176.0, 41)}
+    prepared = {k: (NS(key=k), None) for k in fits}
+    refits = []
+
+    def fake(dataset, spec, base=None, warm=None, **k):
+        refits.append((base.N, warm.bic))
+        return {-28859.0: res(3.56e-6, -40000.0, 81), -27374.0: res(3.22e-6, -47238.0, 81)}[warm.bic]
+    monkeypatch.setattr(dg, "fit", fake)
+    ev = {k: {} for k in fits}
+    pick = dg._tie_break(None, list(fits), "polarization_branch", fits, prepared, [], current, None, None, None,
+                         lambda s: None, ev)
+    assert pick == "field_dependent_resistivity (spline)"
+    assert refits == [(81, -28859.0), (81, -27374.0)]            # the two leaders only, at N = 81
+    assert ev["polarization_branch"]["tie"]["kept"] == pick and "tie" not in ev["field_dependent_resistivity (Eq. 21)"]
+    # a rival short of TIE_SHARE of the best's fall: the coarse BIC decides, nothing refitted
+    refits.clear()
+    fits["field_dependent_resistivity (spline)"] = res(4.20e-6, -0.8 * 28859.0, 41)
+    fits["field_dependent_resistivity (Eq. 21)"] = res(5.22e-6, -0.85 * 28859.0, 41)
+    assert dg._tie_break(None, list(fits), "polarization_branch", fits, prepared, [], current, None, None, None,
+                         lambda s: None, {k: {} for k in fits}) == "polarization_branch" and refits == []
+    # another form of the best's own entry is no rival
+    fits = {"field_dependent_resistivity (spline)": res(4.2e-6, -28000.0, 41),
+            "field_dependent_resistivity (Eq. 21)": res(4.3e-6, -27900.0, 41)}
+    assert dg._tie_break(None, list(fits), "field_dependent_resistivity (spline)", fits, prepared, [], current, None,
+                         None, None, lambda s: None, {k: {} for k in fits}) == "field_dependent_resistivity (spline)"
+    assert refits == []
+
+
 def test_raised_steps_are_told_before_the_selection_and_after_an_entry():
     """report.md's conclusion and improved.toml tell each run of raises: before the
     selection (the baseline's error) or after a kept entry (the kept model's)."""
