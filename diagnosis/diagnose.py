@@ -12,8 +12,8 @@ catalog and the nominal values.
    physics; a kept nominal correction a parameter error (reported under
    corrected_parameters).
 4. The verdict: "unexplained mismatch" when the final model leaves the held-out RMSE
-   or the training RMSE at UNEXPLAINED sensor noises or more, whatever was kept: where (the final model's systematic windows), how large, and how
-   far every tried entry got; "no missing physics found" only when the baseline reaches
+   or the training RMSE at UNEXPLAINED sensor noises or more, whatever was kept: where
+   (the final model's systematic windows), how large, and how far every tried entry got; "no missing physics found" only when the baseline reaches
    the noise. Before any of it, kept physics must beat the model's own discretization
    error: at twice the elements (_resolution_check; the kept fit's values evaluated there
    first, refitted where a check needs it), physics keeps its gain over the baseline; an

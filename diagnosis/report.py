@@ -208,7 +208,8 @@ def conclusion(D) -> str:
                          + (f" (the final model is the rest at N = {at})" if at != r["N_fine"] else ""))
         if gone:
             cuts = ", ".join(f"{m['entry']} cut the {r['measure']} error by {m['gain']:.0%} on top of the rest at "
-                             f"N = {r['N']}, by {m['gain_fine']:.0%} at N = {m.get('N_check', r['N_fine'])}" for m in gone)
+                             f"N = {r['N']}, by {m['gain_fine']:.0%} at N = {m.get('N_check', r['N_fine'])}"
+                             for m in gone)
             parts.append(f"{', '.join(m['entry'] for m in gone)} dropped ({cuts}): it took up the model's "
                          f"discretization error, not physics; the final model is the rest at N = "
                          f"{r.get('N_final', r['N_fine'])}")

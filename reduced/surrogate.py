@@ -368,8 +368,9 @@ class Surrogate:
         loop (docs/guide/surrogates.md).
 
         `current_no_ramp` is the source current at a constant input voltage (the motion
-        and conduction currents; behind R_s, (V - V_d)/R_s, the whole source current): without R_s, a ramping source also delivers capacitance * dV/dt, which
-        a system whose inputs carry no derivative cannot know. Units: the returned
+        and conduction currents; behind R_s, (V - V_d)/R_s, the whole source current):
+        without R_s, a ramping source also delivers capacitance * dV/dt, which a system
+        whose inputs carry no derivative cannot know. Units: the returned
         system's `units` (signals) and `state_units` (SI) attributes.
 
         Equilibria: use equilibrium() (strokes bounded to [0, x_e], the first balance
