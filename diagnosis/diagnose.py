@@ -13,12 +13,13 @@ catalog and the nominal values.
    corrected_parameters).
 4. The verdict: "unexplained mismatch" when the final model leaves the held-out RMSE
    or the training RMSE at UNEXPLAINED sensor noises or more, whatever was kept: where
-   (the final model's systematic windows), how large, and how far every tried entry got; "no missing physics found" only when the baseline reaches
-   the noise. Before any of it, kept physics must beat the model's own discretization
-   error: at twice the elements (_resolution_check; the kept fit's values evaluated there
-   first, refitted where a check needs it), physics keeps its gain over the baseline; an
-   entry whose gain falls away only absorbed resolution error: it is dropped and the finer
-   baseline is the final model.
+   (the final model's systematic windows), how large, and how far every tried entry got;
+   "no missing physics found" only when the baseline reaches the noise. Before any of
+   it, kept physics must beat the model's own discretization error: at twice the elements
+   (_resolution_check; the kept fit's values evaluated there first, refitted where a
+   check needs it), physics keeps its gain over the baseline; an entry whose gain falls
+   away only absorbed resolution error: it is dropped and the finer baseline is the final
+   model.
 5. Nothing held out (a single condition, or a holdout of none): the rounds still run, on
    the training data alone (BIC), but what they keep is never applied - no nominal value
    is corrected and no physics named without held-out evidence. The entries are the
@@ -888,12 +889,8 @@ def _last_entry_check(dataset, fb, ctx, kept, current, before, kf, holdout, exec
     out = [{"entry": e.key, "gain": gain, "gain_fine": 1.0 - _error(fk) / _error(fwf), "rmse_without": _error(fwf),
             "dropped": not holds, "kept_fine": kf.how()}]
     if holds:
-        deep = _deeper(dataset, fb, ctx, e, kept, fwf, kf, current.params.N, holdout, executor, say, budget, gain)
-        if deep is None:
-            return kept, kf, out
-        holds, fwf, fk = deep
-        out[0].update(N_check=fwf.params.N, gain_fine=1.0 - _error(fk) / _error(fwf), rmse_without=_error(fwf),
-                      dropped=not holds)
+        holds, fwf = _deeper(dataset, fb, ctx, e, kept, fwf, kf, current.params.N, holdout, executor, say, budget,
+                             out[0], gain)
         if holds:
             return kept, kf, out
     say(f"resolution check: {e.key} cut the error by {gain:.0%} on top of the rest at N = {current.params.N}, by "
@@ -901,7 +898,7 @@ def _last_entry_check(dataset, fb, ctx, kept, current, before, kf, holdout, exec
     return kept[:-1], _KeptFine(of=fwf), out
 
 
-def _deeper(dataset, fb, ctx, e, kept, fwf, kf, N, holdout, executor, say, budget, gain=None):
+def _deeper(dataset, fb, ctx, e, kept, fwf, kf, N, holdout, executor, say, budget, row, gain=None):
     """An entry that held at the finer N (fb) on top of the rest is checked once more at
     twice those elements when the rest (fwf: the kept model without it, fitted there) is
     not resolved there: it leaves more than RAISE_FLOOR sensor noises, and its own values
@@ -909,15 +906,17 @@ def _deeper(dataset, fb, ctx, e, kept, fwf, kf, N, holdout, executor, say, budge
     refit). The entry's gain over an unresolved rest can be the rest's own discretization
     error: on the lab rig (truth at 4x N) an Eq. (21) law kept before inertia cut 37 % on
     top of inertia at N = 41 (2.70 -> 1.71 um against 1.08 um noise) and nothing at N = 81
-    (1.37 -> 1.36 um). Only while `budget` doublings remain (RAISE_MAX in all). Returns None
-    (the check at fb stands) or (whether it holds at the deeper N, the rest refitted there,
-    the kept model there it was decided on: _holds with `gain`)."""
+    (1.37 -> 1.36 um). Only while `budget` doublings remain (RAISE_MAX in all). Returns
+    (whether it holds, the rest it was judged against): (True, fwf) when the check at fb
+    stands; else the verdict at the deeper N (_holds with `gain`) and the rest refitted
+    there, with the check's record `row` updated (N_check, gain_fine, rmse_without,
+    dropped)."""
     if budget <= 0 or _error(fwf) <= RAISE_FLOOR * fwf.sigma:
-        return None
+        return True, fwf
     try:
         coarse = evaluate(dataset, fwf, fwf.params.replace(N=N), executor)
         if not _error(fwf) < RAISE_GAIN * _error(coarse):
-            return None
+            return True, fwf
         Nd = fine_N(fb.N)
         say(f"resolution check: {e.key} again at N = {Nd} (the rest without it was not resolved at N = {fb.N}: "
             f"{_um(_error(coarse))} at N = {N}, {_um(_error(fwf))} there)")
@@ -927,8 +926,9 @@ def _deeper(dataset, fb, ctx, e, kept, fwf, kf, N, holdout, executor, say, budge
         kfd = _KeptFine(dataset, kb.params.replace(N=Nd), ctx, kept, kb, holdout, executor)
         holds, fk = _holds(kfd, fwd, gain)
     except Exception:              # the deeper models cannot run: the check at fb stands
-        return None
-    return holds, fwd, fk
+        return True, fwf
+    row.update(N_check=Nd, gain_fine=1.0 - _error(fk) / _error(fwd), rmse_without=_error(fwd), dropped=not holds)
+    return holds, fwd
 
 
 def _earlier_entries_check(dataset, fb, ctx, kept, kf, holdout, executor, say, N=None, budget=0):
@@ -952,12 +952,8 @@ def _earlier_entries_check(dataset, fb, ctx, kept, kf, holdout, executor, say, N
         holds, fk = _holds(kf, fwf)
         out.append({"entry": e.key, "gain_fine": 1.0 - _error(fk) / _error(fwf), "rmse_without": _error(fwf),
                     "dropped": not holds, "later": True, "kept_fine": kf.how()})
-        if holds and N is not None:
-            deep = _deeper(dataset, fb, ctx, e, kept, fwf, kf, N, holdout, executor, say, budget)
-            if deep is not None:
-                holds, fwf, fk = deep
-                out[-1].update(N_check=fwf.params.N, gain_fine=1.0 - _error(fk) / _error(fwf),
-                               rmse_without=_error(fwf), dropped=not holds)
+        if holds:
+            holds, fwf = _deeper(dataset, fb, ctx, e, kept, fwf, kf, N, holdout, executor, say, budget, out[-1])
         if not holds:
             say(f"resolution check: {e.key} cuts the error by {out[-1]['gain_fine']:.0%} on top of the entries kept "
                 f"after it at N = {fwf.params.N}: they explain what it took up")

@@ -36,6 +36,28 @@ def _stub_point(monkeypatch, dg, err, bic, sigma=1e-6):
     return calls
 
 
+def _stubbed_diagnose(monkeypatch, without=None):
+    """diagnosis.diagnose with the baseline's free parameters stubbed empty and, given
+    `without`, _without (the kept model without an entry) stubbed by it."""
+    import importlib
+    dg = importlib.import_module("diagnosis.diagnose")
+    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
+    if without is not None:
+        monkeypatch.setattr(dg, "_without", without)
+    return dg
+
+
+def _same_base(drop, kept, fitted, base, ctx):
+    """A _without stub: the base as it is, no free parameters."""
+    return base, []
+
+
+def _entry(key, kind="physics"):
+    """A stand-in catalog entry without free parameters."""
+    from types import SimpleNamespace as NS
+    return NS(kind=kind, key=key, spec=lambda p, ctx: [])
+
+
 @pytest.fixture(scope="module")
 def coarse(tmp_path_factory):
     folder = tmp_path_factory.mktemp("resolution")
@@ -71,15 +93,11 @@ def test_physics_that_holds_is_refitted_where_the_model_resolves_the_data(monkey
     outside the catalog's forms) the N = 21 fit left 5.23 um held out against 2.1 um noise
     ('unexplained mismatch'); its refit at N = 41 left 3.0 um. The rule, with the fits
     stubbed: refined when the finer kept fit is better; kept at N when it is not."""
-    from types import SimpleNamespace as NS
-
-    import importlib
-    dg = importlib.import_module("diagnosis.diagnose")
+    dg = _stubbed_diagnose(monkeypatch)
 
     res = _stubbed_fit
 
-    entry = NS(kind="physics", key="field_dependent_resistivity (spline)", spec=lambda p, ctx: [])
-    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
+    entry = _entry("field_dependent_resistivity (spline)")
     base = preset("vshape-table1").replace(N=21)
     f0, current = res(9.3e-6, 0.0, 21), res(5.2e-6, -900.0, 21)
     # (finer baseline, finer kept): both hold the physics' gain; only the first fits better at N = 41.
@@ -154,10 +172,8 @@ def test_resolution_first_raises_N_while_the_finer_baseline_fits_better(monkeypa
     doublings): on the lab rig (truth at 4x N) a coarse N = 21 model's own error, 11 um
     against 1.5 um noise, was taken up by a spline law that was then named on a null
     dataset. Fits stubbed: the rule's three stops."""
-    import importlib
     from types import SimpleNamespace as NS
-    dg = importlib.import_module("diagnosis.diagnose")
-    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
+    dg = _stubbed_diagnose(monkeypatch)
 
     def res(err, N):
         return NS(heldout_rmse=err, train_rmse=err, sigma=1e-6, params=preset("vshape-table1").replace(N=N))
@@ -208,12 +224,9 @@ def test_resolution_first_after_each_kept_entry(monkeypatch):
     lab rig inertia fitted at N = 21, 41 and 81 left 10.7, 4.5 and 2.0 um against 1.7 um
     noise while the baseline fitted no better at the finer N; a field law had been named
     beside it. Fits stubbed: the rule's stops, the budget and the references refitted."""
-    import importlib
     from types import SimpleNamespace as NS
-    dg = importlib.import_module("diagnosis.diagnose")
-    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
-    entry = NS(kind="physics", key="inertia", spec=lambda p, ctx: [])
-    other = NS(kind="physics", key="series_resistance", spec=lambda p, ctx: [])
+    dg = _stubbed_diagnose(monkeypatch)
+    entry, other = _entry("inertia"), _entry("series_resistance")
 
     def res(err, N):
         return NS(heldout_rmse=err, train_rmse=err, sigma=1e-6, params=preset("vshape-table1").replace(N=N))
@@ -263,13 +276,8 @@ def test_the_last_entry_is_checked_when_the_finer_baseline_fits_no_better(monkey
     is still refitted without it there (which needs no finer baseline): on the lab rig a
     field law kept beside a polarization branch cut the error by 23 % at N = 41 and by 1 %
     at N = 81, and is dropped. Fits stubbed."""
-    import importlib
-    from types import SimpleNamespace as NS
-    dg = importlib.import_module("diagnosis.diagnose")
-    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
-    monkeypatch.setattr(dg, "_without", lambda drop, kept, fitted, base, ctx: (base, []))
-    branch = NS(kind="physics", key="polarization_branch", spec=lambda p, ctx: [])
-    law = NS(kind="physics", key="field_dependent_resistivity (Eq. 21)", spec=lambda p, ctx: [])
+    dg = _stubbed_diagnose(monkeypatch, _same_base)
+    branch, law = _entry("polarization_branch"), _entry("field_dependent_resistivity (Eq. 21)")
 
     res = partial(_stubbed_fit, sigma=1.26e-6)
 
@@ -316,15 +324,9 @@ def test_an_entry_kept_before_others_must_hold_on_top_of_them(monkeypatch):
     branch was kept two rounds later. Each physics entry kept before the last is refitted
     out at the finer N, and dropped when the kept model no longer passes acceptance
     against the model without it; one that still does stays. Fits stubbed."""
-    import importlib
-    from types import SimpleNamespace as NS
-    dg = importlib.import_module("diagnosis.diagnose")
-    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
     dropped_by = []
-    monkeypatch.setattr(dg, "_without", lambda drop, kept, fitted, base, ctx: (dropped_by.append(drop.key) or base, []))
-    spring = NS(kind="physics", key="stiffness", spec=lambda p, ctx: [])
-    eps = NS(kind="nominal", key="nominal:eps_r_l", spec=lambda p, ctx: [])
-    branch = NS(kind="physics", key="polarization_branch", spec=lambda p, ctx: [])
+    dg = _stubbed_diagnose(monkeypatch, lambda drop, kept, fitted, base, ctx: (dropped_by.append(drop.key) or base, []))
+    spring, eps, branch = _entry("stiffness"), _entry("nominal:eps_r_l", "nominal"), _entry("polarization_branch")
 
     res = partial(_stubbed_fit, sigma=2.5e-6)
 
@@ -359,13 +361,8 @@ def test_an_entry_is_checked_deeper_when_the_rest_is_not_resolved(monkeypatch):
     Such an entry is checked again at twice the elements and dropped there; when the rest
     is resolved (its values at N = 21 within 1/RAISE_GAIN of its error) the check at 41
     stands, and with no doublings left (budget 0) it stands too. Fits stubbed."""
-    import importlib
-    from types import SimpleNamespace as NS
-    dg = importlib.import_module("diagnosis.diagnose")
-    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
-    monkeypatch.setattr(dg, "_without", lambda drop, kept, fitted, base, ctx: (base, []))
-    law = NS(kind="physics", key="field_dependent_resistivity (Eq. 21)", spec=lambda p, ctx: [])
-    inertia = NS(kind="physics", key="inertia", spec=lambda p, ctx: [])
+    dg = _stubbed_diagnose(monkeypatch, _same_base)
+    law, inertia = _entry("field_dependent_resistivity (Eq. 21)"), _entry("inertia")
     res = partial(_stubbed_fit, sigma=1.26e-6)
     base = preset("vshape-table1").replace(N=21)
     f0, before, current = res(8.83e-6, 0.0, 21), res(6.98e-6, -9000.0, 21), res(2.02e-6, -48000.0, 21)
@@ -462,10 +459,8 @@ def test_resolution_last_when_nothing_was_kept(monkeypatch):
     too small a screen to fit there, and was named at N = 81 (1.23 um, chi_p 0.0144 against
     0.0151). Not when something was kept, the baseline is within the floor, nothing is held
     out or no doubling is left; the baseline refit _resolve made is reused. Fits stubbed."""
-    import importlib
     from types import SimpleNamespace as NS
-    dg = importlib.import_module("diagnosis.diagnose")
-    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
+    dg = _stubbed_diagnose(monkeypatch)
     calls = []
 
     def fake(dataset, spec, base, **kw):
