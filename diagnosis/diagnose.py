@@ -339,17 +339,17 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                 ok = [n for n, f in fits.items() if _accept(f, current)]
                 if not ok:
                     break
-                best_key = min(ok, key=lambda n: fits[n].bic)
+                best_key, made = min(ok, key=lambda n: fits[n].bic), None
                 if RAISE_MAX - len(raised) > 0:
-                    best_key = _tie_break(dataset, ok, best_key, fits, prepared, kept, current, ctx, holdout,
-                                          executor, say, ev)
+                    best_key, made = _tie_break(dataset, ok, best_key, fits, prepared, kept, current, ctx, holdout,
+                                                executor, say, ev)
                 kept.append(prepared[best_key][0])
                 before = current            # the model the last kept entry was fitted on top of
                 current = fits[best_key]
                 say(f"kept {best_key}: BIC {ev[best_key]['delta_bic']:+.1f}, held out {_um(current.heldout_rmse)}")
                 base, f0, current, before, steps, tried = _raise_kept(dataset, base, ctx, kept, current, f0, before,
                                                                       holdout, executor, say, RAISE_MAX - len(raised),
-                                                                      fine)
+                                                                      fine, made)
                 if tried:
                     refits.append(tried)
                 if steps:
@@ -488,12 +488,13 @@ def _tie_break(dataset, ok, best_key, fits, prepared, kept, current, ctx, holdou
     error as much as by the data: on the lab rig (truth at 4x N, a power law rho_l ~ E^-2.7
     outside the catalog's forms) a slow polarization branch (tau_p = 11 s) beat the spline
     law at N = 41 by a BIC fall of 28859 against 27374 and was named; at N = 81 the spline
-    left 3.22 um held out, the branch 3.56 um (2.13 um noise)."""
+    left 3.22 um held out, the branch 3.56 um (2.13 um noise). Returns (the key kept, its
+    refit at fine_N when one was made, else None: the same refit _raise_kept would make)."""
     best = fits[best_key]
     fall = best.bic - current.bic
     rivals = [k for k in ok if _name(k) != _name(best_key) and fits[k].bic - current.bic <= TIE_SHARE * fall]
     if not rivals:
-        return best_key
+        return best_key, None
     rival = min(rivals, key=lambda k: fits[k].bic)
     Nf = fine_N(current.params.N)
     say(f"{best_key} and {rival} within {1 - TIE_SHARE:.0%} of each other's BIC fall: both refitted at N = {Nf}")
@@ -505,7 +506,7 @@ def _tie_break(dataset, ok, best_key, fits, prepared, kept, current, ctx, holdou
             fine[key] = fit(dataset, _spec(pk, ctx, [*kept, prepared[key][0]]), base=pk, holdout=holdout,
                             executor=executor, warm=f, max_nfev=RES_NFEV)
         except Exception:          # the finer model cannot run: the coarse BIC decides
-            return best_key
+            return best_key, None
     pick = min(fine, key=lambda k: fine[k].bic)
     record = {"N": Nf, **{k: {"bic": fine[k].bic, "heldout_rmse": fine[k].heldout_rmse,
                               "train_rmse": fine[k].train_rmse} for k in fine}, "kept": pick}
@@ -514,7 +515,7 @@ def _tie_break(dataset, ok, best_key, fits, prepared, kept, current, ctx, holdou
     if pick != best_key:
         say(f"kept {pick} instead of {best_key}: at N = {Nf} its BIC is {fine[best_key].bic - fine[pick].bic:.1f} "
             f"lower (held out {_um(fine[pick].heldout_rmse)} against {_um(fine[best_key].heldout_rmse)})")
-    return pick
+    return pick, fine[pick]
 
 
 def _resolve(dataset, base, ctx, f0, holdout, executor, say):
@@ -571,7 +572,8 @@ def _retry_finer(dataset, base, ctx, f0, kept, holdout, executor, say, budget, f
     return fb, ff, {"N": base.N, "error": _error(f0), "N_fine": Nf, "error_fine": _error(ff), "after": NOTHING_KEPT}
 
 
-def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor, say, budget, fine=None):
+def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor, say, budget, fine=None,
+                made=None):
     """Resolution first after each kept entry, as _resolve before the selection: while the
     kept model leaves more than RAISE_FLOOR sensor noises and its refit at fine_N (warm,
     RES_NFEV evaluations) cuts that error below RAISE_GAIN of it, the next rounds run at
@@ -583,7 +585,8 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
     before the selection kept N = 21 and a field law was named beside each, taking up that
     error. The baseline (and the fit the last entry was added to) are refitted at the new N
     too, so the checks after the selection compare models at one N (`fine`: the baseline's
-    refit at fine_N if _resolve made it, reused). Returns (base,
+    refit at fine_N if _resolve made it, reused; `made`: the kept fit's own refit at fine_N
+    if _tie_break made it, reused). Returns (base,
     baseline fit, kept fit, the fit the last entry was added to, steps [{N, error,
     N_fine, error_fine, after}], (kept fit, its refit at fine_N) when that refit was made
     and not taken, else None: the same refit _resolution_check would make)."""
@@ -594,8 +597,12 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
         Nf = fine_N(base.N)
         fb, pk = base.replace(N=Nf), current.params.replace(N=Nf)
         try:
-            fk = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
-                     max_nfev=RES_NFEV)
+            if made is not None and made.params.N == Nf:
+                fk = made               # the tie-break's refit of this model here: the same call
+            else:
+                fk = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
+                         max_nfev=RES_NFEV)
+            made = None
             if not _error(fk) < RAISE_GAIN * _error(current):
                 return base, f0, current, before, steps, (current, fk)
             f0n = _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine)

@@ -416,22 +416,30 @@ def test_close_rivals_are_compared_at_twice_the_elements(monkeypatch):
         return {-28859.0: res(3.56e-6, -40000.0, 81), -27374.0: res(3.22e-6, -47238.0, 81)}[warm.bic]
     monkeypatch.setattr(dg, "fit", fake)
     ev = {k: {} for k in fits}
-    pick = dg._tie_break(None, list(fits), "polarization_branch", fits, prepared, [], current, None, None, None,
-                         lambda s: None, ev)
-    assert pick == "field_dependent_resistivity (spline)"
+    pick, made = dg._tie_break(None, list(fits), "polarization_branch", fits, prepared, [], current, None, None,
+                               None, lambda s: None, ev)
+    assert pick == "field_dependent_resistivity (spline)" and made.params.N == 81 and made.bic == -47238.0
     assert refits == [(81, -28859.0), (81, -27374.0)]            # the two leaders only, at N = 81
     assert ev["polarization_branch"]["tie"]["kept"] == pick and "tie" not in ev["field_dependent_resistivity (Eq. 21)"]
+    # resolution first after the entry is kept reuses that refit (the same call) instead of making it again
+    monkeypatch.setattr(dg, "fit", lambda *a, **k: pytest.fail("the tie-break's refit is made again"))
+    f0, fine = res(9.22e-6, 0.0, 41), res(7.5e-6, 0.0, 81)
+    base, _, kept_fit, _, steps, _ = dg._raise_kept(None, preset("vshape-table1").replace(N=41), None,
+                                                    [prepared[pick][0]], fits[pick], f0, f0, None, None,
+                                                    lambda s: None, 1, fine, made)
+    assert base.N == 81 and kept_fit is made and steps[0]["error_fine"] == 3.22e-6
     # a rival short of TIE_SHARE of the best's fall: the coarse BIC decides, nothing refitted
     refits.clear()
     fits["field_dependent_resistivity (spline)"] = res(4.20e-6, -0.8 * 28859.0, 41)
     fits["field_dependent_resistivity (Eq. 21)"] = res(5.22e-6, -0.85 * 28859.0, 41)
     assert dg._tie_break(None, list(fits), "polarization_branch", fits, prepared, [], current, None, None, None,
-                         lambda s: None, {k: {} for k in fits}) == "polarization_branch" and refits == []
+                         lambda s: None, {k: {} for k in fits}) == ("polarization_branch", None) and refits == []
     # another form of the best's own entry is no rival
     fits = {"field_dependent_resistivity (spline)": res(4.2e-6, -28000.0, 41),
             "field_dependent_resistivity (Eq. 21)": res(4.3e-6, -27900.0, 41)}
     assert dg._tie_break(None, list(fits), "field_dependent_resistivity (spline)", fits, prepared, [], current, None,
-                         None, None, lambda s: None, {k: {} for k in fits}) == "field_dependent_resistivity (spline)"
+                         None, None, lambda s: None, {k: {} for k in fits}) == ("field_dependent_resistivity (spline)",
+                                                                                None)
     assert refits == []
 
 
