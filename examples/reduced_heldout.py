@@ -6,7 +6,7 @@ fit never saw. Writes a Markdown table and a CSV (examples/figures/reduced_heldo
 
 Goals (issue 23): stroke RMS <= 2 % of range, DC unzipping speed <= 5 %, drift over the
 run within max(1 um, 20 %) with the right sign. The surrogate is the unfitted charge
-family (reduced.charge: c_ell = 1.8, c_w = 4, 11 material points); nothing is tuned here.
+family (reduced.charge: c_ell = 1.2, c_w = 2, 15 material points); nothing is tuned here.
 """
 from __future__ import annotations
 

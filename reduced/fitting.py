@@ -167,6 +167,11 @@ def fit(params: Parameters, family: str = "charge", envelope: Envelope | None = 
         sol = minimize_scalar(lambda z: cost(np.array([z])), bounds=(math.log(0.1), math.log(10.0)), method="bounded",
                               options={"xatol": 0.02, "maxiter": 30})
         theta, cost_after = np.array([sol.x]), float(sol.fun)
+        cost0 = cost(theta0)
+        if not cost_after < cost0:
+            # the default is the family's constant chosen on development devices; on a
+            # device near them the search (over a noisy cost) can end beside it, worse
+            theta, cost_after = theta0, cost0
     else:
         theta0 = np.array([1.0, 1.0])
         lo, hi = [0.3, 0.1], [3.0, 10.0]

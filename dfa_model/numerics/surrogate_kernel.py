@@ -10,11 +10,13 @@ at a voltage step ten seconds ago, or never). A few material points spread over 
 electrode keep that history. Between them and the layer, a wake on each side of the
 front: the zipped material just behind the layer and the unzipped material just ahead,
 each a band c_w w_f wide. A front that moves renews the layer from the wake it moves
-into, that wake from the nearest material point beyond it, and the other wake from the
-layer it leaves: a front that turns back finds the material it just swept, not a point
-millimetres away (one uniform zipped charge, as before, renewed a retreating front with
-material zipped long ago; renewing the layer from the points directly locked a front that
-turned back into running away from the charge it had just left).
+into, that wake from the material beyond it (ahead: the first unzipped point; behind:
+the zipped material a wake width back, interpolated between the points), and the other
+wake from the layer it leaves: a front that turns back finds the material it just
+swept, not a point millimetres away (one uniform zipped charge, as before, renewed a
+retreating front with material zipped long ago; renewing the layer from the points
+directly locked a front that turned back into running away from the charge it had just
+left).
 
 Every charge state is a material point with pointwise physics, the full model's own
 (dfa_model.physics.nodal): for an inverse gap 1/u and a screening thickness T0',
@@ -229,8 +231,9 @@ def _polarization_slopes(y, rw, n, rate, cp):
 def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     """The core's rates (stroke, velocity, V_d, layer) into ydot at the maps' row rw, the
     zipped points' mean charge qz. Returns (force, source current, and the couplings of
-    the wakes to their source points: (ka, ra) the ahead wake's point and rate, (kb, rb)
-    the behind wake's)."""
+    the wakes to their source points: (ka, ra, fa) the ahead wake's, its source's
+    derivative ra (1 - fa) in point ka's charge and ra fa in point ka + 1's; (kb, rb,
+    fb) the behind wake's)."""
     xe = par[P_XE]
     x = min(max(y[X], 0.0), xe)
     n = int(par[P_N])
@@ -277,8 +280,8 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     # over the speed v_s (par P_VS, all but sharp: blending over creep speeds cost the
     # creep's physics, 40 % of the unzipping speed at v_s ~ the creep)
     ld = rw[DLZ] * xd
-    ka, kb = -1, -1
-    ra, rb = 0.0, 0.0
+    ca_k, cb_k = -1, -1
+    ca_r, cb_r, ca_f, cb_f = 0.0, 0.0, 0.0, 0.0
     if n >= 2 and par[P_ICELL] > 0.0:
         if side != 0.0:
             # a side given (linear in the front's speed: an analysis of one branch)
@@ -290,18 +293,36 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
             sp = root - vs_                              # |ld|, smooth at 0
             wa = 0.5 * (1.0 + ld / root) if root > 0.0 else 0.5      # the share advancing
         wb = 1.0 - wa
-        h = par[P_LE] / (n - 1)
-        kb = min(max(int(math.floor(rw[LZ] / h + 1e-12)), 0), n - 1)   # the last zipped point
-        ka = min(kb + 1, n - 1)                                       # the first unzipped one
         rf = sp * par[P_ICELL] / rw[WF]
         rw_ = sp * par[P_IWB] / rw[WF]
         ydot[QF] += rf * (wa * (qa - qf) + wb * (qb - qf))
         ydot[PF] += rf * (wa * (Pa - Pf) + wb * (Pb - Pf))
         ra, rb = rw_ * wa, rw_ * wb
-        ydot[QA] += ra * (y[NODE0 + ka] - qa) + rb * (qf - qa)
-        ydot[PA] += ra * (y[NODE0 + n + ka] - Pa) + rb * (Pf - Pa)
-        ydot[QB] += rb * (y[NODE0 + kb] - qb) + ra * (qf - qb)
-        ydot[PB] += rb * (y[NODE0 + n + kb] - Pb) + ra * (Pf - Pb)
+        # each wake's source. Ahead: the first unzipped material point (the material the
+        # front advances into keeps its own history there). Behind: the zipped material a
+        # wake width back, interpolated between the points around it (the layer at the
+        # front standing in for a point beyond it): the last zipped point, up to a point
+        # spacing back, renewed a creeping front with material zipped long before it
+        h = par[P_LE] / (n - 1)
+        lz = rw[LZ]
+        ka = min(max(int(math.floor(lz / h + 1e-12)), 0) + 1, n - 1)
+        qsa, Psa = y[NODE0 + ka], y[NODE0 + n + ka]
+        sb = max(lz - rw[WF] / par[P_IWB], 0.0) / h
+        kb = min(int(sb), n - 2)
+        fb = sb - kb
+        if (kb + 1) * h <= lz:
+            qsb = (1.0 - fb) * y[NODE0 + kb] + fb * y[NODE0 + kb + 1]
+            Psb = (1.0 - fb) * y[NODE0 + n + kb] + fb * y[NODE0 + n + kb + 1]
+            ca_k, ca_r, ca_f, cb_k, cb_r, cb_f = ka, ra, 0.0, kb, rb, fb
+        else:
+            g = (lz - sb * h) / (lz - kb * h) if lz > kb * h else 0.0    # point kb's weight
+            qsb = (1.0 - g) * qf + g * y[NODE0 + kb]
+            Psb = (1.0 - g) * Pf + g * y[NODE0 + n + kb]
+            ca_k, ca_r, ca_f, cb_k, cb_r, cb_f = ka, ra, 0.0, kb, rb * g, 0.0
+        ydot[QA] += ra * (qsa - qa) + rb * (qf - qa)
+        ydot[PA] += ra * (Psa - Pa) + rb * (Pf - Pa)
+        ydot[QB] += rb * (qsb - qb) + ra * (qf - qb)
+        ydot[PB] += rb * (Psb - Pb) + ra * (Pf - Pb)
     # the source current: motion of the gap, conduction and charging; behind R_s the
     # device voltage's own equation, else the capacitive current of the input's ramp
     rest = xd * (rw[J0] * Vd + rw[J1] * qf) + rw[I0] * Vd + rw[I1] * qz
@@ -313,7 +334,7 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
         I = rw[CAP] * vdot + rest
     ydot[NY - 2] = 0.0
     ydot[NY - 1] = 0.0
-    return Fe, I, ka, ra, kb, rb
+    return Fe, I, ca_k, ca_r, ca_f, cb_k, cb_r, cb_f
 
 
 @njit(cache=True, _nrt=False)
@@ -323,7 +344,7 @@ def rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, jn, side=0.0):
     capacitive current). mode FREE, HELD (the stroke rests on a stop) or AUTO (a stop
     holds it when the force pushes into it); jn: the points' 2 x 2 blocks are stored
     there if it has a row per point. Returns (electrostatic force, source current, ka,
-    ra, kb, rb: _core_rates)."""
+    ra, fa, kb, rb, fb: _core_rates)."""
     xe = par[P_XE]
     table_row(tab, xe, min(max(y[X], 0.0), xe), rw)
     n = int(par[P_N])
@@ -410,7 +431,7 @@ def _couple(g, Jb, Bi, k, rate, row, Mc, pos, m):
 
 
 @njit(cache=True, _nrt=False)
-def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf, pol):
+def _factor(g, Jc, Jb, Jn, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, rf, pol):
     """Factor I - g J: the points' 2 x 2 blocks (inverted into Bi), then the Schur
     complement of the m active core slots (the wakes' rows see their source points
     through the renewal; the mechanics' row rf sees every point's P through the
@@ -434,8 +455,10 @@ def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf, pol):
     for r in range(m):
         for c in range(m):
             Mc[r, c] = (1.0 if r == c else 0.0) - g * Jc[r, c]
-    _couple(g, Jb, Bi, ka, ra, QA, Mc, pos, m)
-    _couple(g, Jb, Bi, kb, rb, QB, Mc, pos, m)
+    _couple(g, Jb, Bi, ka, ra * (1.0 - fa), QA, Mc, pos, m)
+    _couple(g, Jb, Bi, ka + 1, ra * fa, QA, Mc, pos, m)
+    _couple(g, Jb, Bi, kb, rb * (1.0 - fb), QB, Mc, pos, m)
+    _couple(g, Jb, Bi, kb + 1, rb * fb, QB, Mc, pos, m)
     if rf >= 0:
         for i in range(n):
             if cp[i] != 0.0:
@@ -456,14 +479,16 @@ def _uncouple(g, Bi, k, rate, row, b, n, rc, pos):
 
 
 @njit(cache=True, _nrt=False)
-def _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf, pol):
+def _solve(g, Jb, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf, pol):
     """Solve (I - g J) z = b in place, with the factors of _factor (an inactive core
     state's row is the identity: its entry stays); pol: the actuator has the
     polarization branch."""
     for r in range(m):
         rc[r] = b[_state(cl[r], NY)]
-    _uncouple(g, Bi, ka, ra, QA, b, n, rc, pos)      # the points' right-hand sides,
-    _uncouple(g, Bi, kb, rb, QB, b, n, rc, pos)      # eliminated from the wakes' rows
+    _uncouple(g, Bi, ka, ra * (1.0 - fa), QA, b, n, rc, pos)    # the points' right-hand
+    _uncouple(g, Bi, ka + 1, ra * fa, QA, b, n, rc, pos)        # sides, eliminated from
+    _uncouple(g, Bi, kb, rb * (1.0 - fb), QB, b, n, rc, pos)    # the wakes' rows
+    _uncouple(g, Bi, kb + 1, rb * fb, QB, b, n, rc, pos)
     if rf >= 0:                                       # and from the mechanics' row
         for i in range(n):
             if cp[i] != 0.0:
@@ -620,8 +645,8 @@ def _hold_jacobian(Jc, Jb, pos, m, n):
 
 
 @njit(cache=True, _nrt=False)
-def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb, ka, ra, kb, rb,
-            Jb0, n, Mc, piv, Bi, NY, rc, cl, pos, m, cp, rf, Jn2, vs_k, fs_k, active, rtol, sc):
+def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb, ka, ra, fa, kb, rb,
+            fb, Jb0, n, Mc, piv, Bi, NY, rc, cl, pos, m, cp, rf, Jn2, vs_k, fs_k, active, rtol, sc):
     """One Rosenbrock-W step of size hs from y (F0 = f(y); the matrix I - g J factored):
     the three stages of ode23s and the scaled error of the embedded pair. yt receives the
     new state, F2 f there. Returns (error, and rhs's results at yt: force, current and the
@@ -630,7 +655,7 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     pol = par[P_CHI] > 0.0
     for i in range(NY):
         k1[i] = F0[i]
-    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, rf, pol)
+    _solve(g, Jb, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, rf, pol)
     for i in range(NY):
         yt[i] = y[i] + 0.5 * hs * k1[i]
     rhs(yt, W, vd, tab, par, law, lawp, F1, rw, pt, mode, Jb0, side)
@@ -638,22 +663,22 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     F1[NY - 1] = fs_k
     for i in range(NY):
         k2[i] = F1[i] - k1[i]
-    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, rf, pol)
+    _solve(g, Jb, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, rf, pol)
     for i in range(NY):
         k2[i] += k1[i]
         yt[i] = y[i] + hs * k2[i]
-    Fe2, I2, ka2, ra2, kb2, rb2 = rhs(yt, W, vd, tab, par, law, lawp, F2, rw, pt, mode, Jn2, side)
+    Fe2, I2, ka2, ra2, fa2, kb2, rb2, fb2 = rhs(yt, W, vd, tab, par, law, lawp, F2, rw, pt, mode, Jn2, side)
     F2[NY - 2] = vs_k
     F2[NY - 1] = fs_k
     for i in range(NY):
         k3[i] = F2[i] - d_e32 * (k2[i] - F1[i]) - 2.0 * (k1[i] - F0[i])
-    _solve(g, Jb, ka, ra, kb, rb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, rf, pol)
+    _solve(g, Jb, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, rf, pol)
     err = 0.0
     for i in range(NY - 2):
         if active[i]:
             e = hs / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i]) / (rtol * (abs(y[i]) + sc[i]))
             err = max(err, abs(e))
-    return err, Fe2, I2, ka2, ra2, kb2, rb2
+    return err, Fe2, I2, ka2, ra2, fa2, kb2, rb2, fb2
 
 
 @njit(cache=True, inline="always")
@@ -786,7 +811,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
     h = h0
     y[NY - 2] = v0[0]
     y[NY - 1] = f0[0]
-    Fe, I, ka, ra, kb, rb = rhs(y, w2[0], vs[0], tab, par, law, lawp, F0, rw, pt, AUTO, Jb0)
+    Fe, I, ka, ra, fa, kb, rb, fb = rhs(y, w2[0], vs[0], tab, par, law, lawp, F0, rw, pt, AUTO, Jb0)
     _record(rec, 0, tb[0], y, I, Fe, NY)
     row = 1
     for seg in range(len(v0)):
@@ -806,7 +831,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
                 last = True
             mode = on_stop(y, W, tab, par, law, lawp, ft, rw, pt, Jb0)
             if not (have and mode == FREE):
-                Fe, I, ka, ra, kb, rb = rhs(y, W, vd, tab, par, law, lawp, ft, rw, pt, mode, Jn, side)
+                Fe, I, ka, ra, fa, kb, rb, fb = rhs(y, W, vd, tab, par, law, lawp, ft, rw, pt, mode, Jn, side)
                 for c in range(rw.shape[0]):
                     rw0[c] = rw[c]
             for i in range(NY - 2):
@@ -826,11 +851,11 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
             while True:
                 steps += 1
                 g = d * hs
-                _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, n, Mc, piv, Bi, pos, m, cp, rf, par[P_CHI] > 0.0)
-                err, Fe2, I2, ka2, ra2, kb2, rb2 = _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1,
-                                                           F2, k1, k2, k3, yt, g, Jb, ka, ra, kb, rb, Jb0, n, Mc, piv,
-                                                           Bi,
-                                                           NY, rc, cl, pos, m, cp, rf, Jn2, vs[seg], fs[seg], active,
+                _factor(g, Jc, Jb, Jn, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, rf, par[P_CHI] > 0.0)
+                err, Fe2, I2, ka2, ra2, fa2, kb2, rb2, fb2 = _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt,
+                                                                     mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb,
+                                                                     ka, ra, fa, kb, rb, fb, Jb0, n, Mc, piv, Bi,
+                                                                     NY, rc, cl, pos, m, cp, rf, Jn2, vs[seg], fs[seg], active,
                                                            rtol, sc)
                 if not (err == err):
                     return NONFINITE, row, steps, y
@@ -863,12 +888,12 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
             have = not (clipped or last or mode == HELD)
             if have:
                 _carry(ft, F2, Jn, Jn2, rw0, rw, n, NY)
-                ka, ra, kb, rb = ka2, ra2, kb2, rb2
+                ka, ra, fa, kb, rb, fb = ka2, ra2, fa2, kb2, rb2, fb2
                 Fe, I = Fe2, I2
             elif not clipped and mode == FREE and vs[seg] == 0.0 and fs[seg] == 0.0:
                 Fe, I = Fe2, I2     # a breakpoint of constant inputs: the last stage is at y
             else:
-                Fe, I, _, _, _, _ = rhs(y, W, vd, tab, par, law, lawp, k1, rw, pt, AUTO, Jb0)
+                Fe, I, _, _, _, _, _, _ = rhs(y, W, vd, tab, par, law, lawp, k1, rw, pt, AUTO, Jb0)
             _record(rec, row, t, y, I, Fe, NY)
             row += 1
             h_new = hs * grow_factor(err)
@@ -889,7 +914,7 @@ def evaluate(y, W, vdot, tab, par, law, lawp, ydot, mode):
     """rhs for callers outside the integrator (python-control): returns (force, current)."""
     rw = np.empty(tab.shape[1])
     pt = np.empty(6)
-    Fe, I, _, _, _, _ = rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, np.empty((0, 4)))
+    Fe, I, _, _, _, _, _, _ = rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, np.empty((0, 4)))
     return Fe, I
 
 
