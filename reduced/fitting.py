@@ -167,11 +167,11 @@ def fit(params: Parameters, family: str = "charge", envelope: Envelope | None = 
         sol = minimize_scalar(lambda z: cost(np.array([z])), bounds=(math.log(0.1), math.log(10.0)), method="bounded",
                               options={"xatol": 0.02, "maxiter": 30})
         theta, cost_after = np.array([sol.x]), float(sol.fun)
-        cost0 = cost(theta0)
-        if not cost_after < cost0:
+        cost_before = cost(theta0)
+        if not cost_after < cost_before:
             # the default is the family's constant chosen on development devices; on a
             # device near them the search (over a noisy cost) can end beside it, worse
-            theta, cost_after = theta0, cost0
+            theta, cost_after = theta0, cost_before
     else:
         theta0 = np.array([1.0, 1.0])
         lo, hi = [0.3, 0.1], [3.0, 10.0]
@@ -181,8 +181,9 @@ def fit(params: Parameters, family: str = "charge", envelope: Envelope | None = 
         sol = least_squares(lambda th: _residuals(_apply(base, family, th, n_grid), envelope.training, fulls), theta0,
                             bounds=(lo, hi), diff_step=1e-3, x_scale=[0.1, 0.1], max_nfev=60)
         theta, cost_after = sol.x, cost(sol.x)     # the same measure as cost_before
+        cost_before = cost(theta0)
     s = _apply(base, family, theta, n_grid)
-    s.info.update({"fitted": {"theta": theta.tolist(), "cost_before": cost(theta0),
+    s.info.update({"fitted": {"theta": theta.tolist(), "cost_before": cost_before,
                               "cost_after": cost_after, "training": [c.label for c in envelope.training]}})
     if envelope.heldout:
         s.info["heldout"] = evaluate(s, envelope.heldout, executor=executor, progress=progress)

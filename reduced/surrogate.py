@@ -42,8 +42,8 @@ from dfa_model.numerics.trace import StrokeTrace
 from dfa_model.waveforms import Load, Protocol, segments
 
 FORMAT = "dfa-surrogate"
-VERSION = 5     # 5: the wakes' sources interpolated (4: material points + the front layer as an
-                # effective point; 3: q_z, q_d, c_ell, beta_f)
+VERSION = 5     # 5: the behind wake's source interpolated, 15 points (4: material points + the
+                # front layer as an effective point; 3: q_z, q_d, c_ell, beta_f)
 V_S_REL = 1e-8        # the front's side blends over v_s = V_S_REL l_e per second: continuous, all but sharp
 RTOL = 1e-4           # the fast path's tolerance: the stroke's local error bound is rtol (x + x_e)
 

@@ -231,9 +231,9 @@ def _polarization_slopes(y, rw, n, rate, cp):
 def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     """The core's rates (stroke, velocity, V_d, layer) into ydot at the maps' row rw, the
     zipped points' mean charge qz. Returns (force, source current, and the couplings of
-    the wakes to their source points: (ka, ra, fa) the ahead wake's, its source's
-    derivative ra (1 - fa) in point ka's charge and ra fa in point ka + 1's; (kb, rb,
-    fb) the behind wake's)."""
+    the wakes to their source points: (ka, ra) the ahead wake's point and rate; (kb, rb,
+    fb) the behind wake's, its source's derivative rb (1 - fb) in point kb's charge and
+    rb fb in point kb + 1's)."""
     xe = par[P_XE]
     x = min(max(y[X], 0.0), xe)
     n = int(par[P_N])
@@ -280,8 +280,8 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     # over the speed v_s (par P_VS, all but sharp: blending over creep speeds cost the
     # creep's physics, 40 % of the unzipping speed at v_s ~ the creep)
     ld = rw[DLZ] * xd
-    ca_k, cb_k = -1, -1
-    ca_r, cb_r, ca_f, cb_f = 0.0, 0.0, 0.0, 0.0
+    ka, kb = -1, -1
+    ra, rbs, fb = 0.0, 0.0, 0.0     # rbs: the behind wake's rate in its source points
     if n >= 2 and par[P_ICELL] > 0.0:
         if side != 0.0:
             # a side given (linear in the front's speed: an analysis of one branch)
@@ -313,12 +313,12 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
         if (kb + 1) * h <= lz:
             qsb = (1.0 - fb) * y[NODE0 + kb] + fb * y[NODE0 + kb + 1]
             Psb = (1.0 - fb) * y[NODE0 + n + kb] + fb * y[NODE0 + n + kb + 1]
-            ca_k, ca_r, ca_f, cb_k, cb_r, cb_f = ka, ra, 0.0, kb, rb, fb
+            rbs = rb
         else:
             g = (lz - sb * h) / (lz - kb * h) if lz > kb * h else 0.0    # point kb's weight
             qsb = (1.0 - g) * qf + g * y[NODE0 + kb]
             Psb = (1.0 - g) * Pf + g * y[NODE0 + n + kb]
-            ca_k, ca_r, ca_f, cb_k, cb_r, cb_f = ka, ra, 0.0, kb, rb * g, 0.0
+            rbs, fb = rb * g, 0.0
         ydot[QA] += ra * (qsa - qa) + rb * (qf - qa)
         ydot[PA] += ra * (Psa - Pa) + rb * (Pf - Pa)
         ydot[QB] += rb * (qsb - qb) + ra * (qf - qb)
@@ -334,7 +334,7 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
         I = rw[CAP] * vdot + rest
     ydot[NY - 2] = 0.0
     ydot[NY - 1] = 0.0
-    return Fe, I, ca_k, ca_r, ca_f, cb_k, cb_r, cb_f
+    return Fe, I, ka, ra, kb, rbs, fb
 
 
 @njit(cache=True, _nrt=False)
@@ -344,7 +344,7 @@ def rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, jn, side=0.0):
     capacitive current). mode FREE, HELD (the stroke rests on a stop) or AUTO (a stop
     holds it when the force pushes into it); jn: the points' 2 x 2 blocks are stored
     there if it has a row per point. Returns (electrostatic force, source current, ka,
-    ra, fa, kb, rb, fb: _core_rates)."""
+    ra, kb, rb, fb: _core_rates)."""
     xe = par[P_XE]
     table_row(tab, xe, min(max(y[X], 0.0), xe), rw)
     n = int(par[P_N])
@@ -431,7 +431,7 @@ def _couple(g, Jb, Bi, k, rate, row, Mc, pos, m):
 
 
 @njit(cache=True, _nrt=False)
-def _factor(g, Jc, Jb, Jn, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, rf, pol):
+def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, rf, pol):
     """Factor I - g J: the points' 2 x 2 blocks (inverted into Bi), then the Schur
     complement of the m active core slots (the wakes' rows see their source points
     through the renewal; the mechanics' row rf sees every point's P through the
@@ -455,8 +455,7 @@ def _factor(g, Jc, Jb, Jn, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, r
     for r in range(m):
         for c in range(m):
             Mc[r, c] = (1.0 if r == c else 0.0) - g * Jc[r, c]
-    _couple(g, Jb, Bi, ka, ra * (1.0 - fa), QA, Mc, pos, m)
-    _couple(g, Jb, Bi, ka + 1, ra * fa, QA, Mc, pos, m)
+    _couple(g, Jb, Bi, ka, ra, QA, Mc, pos, m)
     _couple(g, Jb, Bi, kb, rb * (1.0 - fb), QB, Mc, pos, m)
     _couple(g, Jb, Bi, kb + 1, rb * fb, QB, Mc, pos, m)
     if rf >= 0:
@@ -479,16 +478,15 @@ def _uncouple(g, Bi, k, rate, row, b, n, rc, pos):
 
 
 @njit(cache=True, _nrt=False)
-def _solve(g, Jb, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf, pol):
+def _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf, pol):
     """Solve (I - g J) z = b in place, with the factors of _factor (an inactive core
     state's row is the identity: its entry stays); pol: the actuator has the
     polarization branch."""
     for r in range(m):
         rc[r] = b[_state(cl[r], NY)]
-    _uncouple(g, Bi, ka, ra * (1.0 - fa), QA, b, n, rc, pos)    # the points' right-hand
-    _uncouple(g, Bi, ka + 1, ra * fa, QA, b, n, rc, pos)        # sides, eliminated from
-    _uncouple(g, Bi, kb, rb * (1.0 - fb), QB, b, n, rc, pos)    # the wakes' rows
-    _uncouple(g, Bi, kb + 1, rb * fb, QB, b, n, rc, pos)
+    _uncouple(g, Bi, ka, ra, QA, b, n, rc, pos)                 # the points' right-hand
+    _uncouple(g, Bi, kb, rb * (1.0 - fb), QB, b, n, rc, pos)    # sides, eliminated from
+    _uncouple(g, Bi, kb + 1, rb * fb, QB, b, n, rc, pos)        # the wakes' rows
     if rf >= 0:                                       # and from the mechanics' row
         for i in range(n):
             if cp[i] != 0.0:
@@ -645,7 +643,7 @@ def _hold_jacobian(Jc, Jb, pos, m, n):
 
 
 @njit(cache=True, _nrt=False)
-def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb, ka, ra, fa, kb, rb,
+def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb, ka, ra, kb, rb,
             fb, Jb0, n, Mc, piv, Bi, NY, rc, cl, pos, m, cp, rf, Jn2, vs_k, fs_k, active, rtol, sc):
     """One Rosenbrock-W step of size hs from y (F0 = f(y); the matrix I - g J factored):
     the three stages of ode23s and the scaled error of the embedded pair. yt receives the
@@ -655,7 +653,7 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     pol = par[P_CHI] > 0.0
     for i in range(NY):
         k1[i] = F0[i]
-    _solve(g, Jb, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, rf, pol)
+    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, rf, pol)
     for i in range(NY):
         yt[i] = y[i] + 0.5 * hs * k1[i]
     rhs(yt, W, vd, tab, par, law, lawp, F1, rw, pt, mode, Jb0, side)
@@ -663,22 +661,22 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     F1[NY - 1] = fs_k
     for i in range(NY):
         k2[i] = F1[i] - k1[i]
-    _solve(g, Jb, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, rf, pol)
+    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, rf, pol)
     for i in range(NY):
         k2[i] += k1[i]
         yt[i] = y[i] + hs * k2[i]
-    Fe2, I2, ka2, ra2, fa2, kb2, rb2, fb2 = rhs(yt, W, vd, tab, par, law, lawp, F2, rw, pt, mode, Jn2, side)
+    Fe2, I2, ka2, ra2, kb2, rb2, fb2 = rhs(yt, W, vd, tab, par, law, lawp, F2, rw, pt, mode, Jn2, side)
     F2[NY - 2] = vs_k
     F2[NY - 1] = fs_k
     for i in range(NY):
         k3[i] = F2[i] - d_e32 * (k2[i] - F1[i]) - 2.0 * (k1[i] - F0[i])
-    _solve(g, Jb, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, rf, pol)
+    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, rf, pol)
     err = 0.0
     for i in range(NY - 2):
         if active[i]:
             e = hs / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i]) / (rtol * (abs(y[i]) + sc[i]))
             err = max(err, abs(e))
-    return err, Fe2, I2, ka2, ra2, fa2, kb2, rb2, fb2
+    return err, Fe2, I2, ka2, ra2, kb2, rb2, fb2
 
 
 @njit(cache=True, inline="always")
@@ -811,7 +809,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
     h = h0
     y[NY - 2] = v0[0]
     y[NY - 1] = f0[0]
-    Fe, I, ka, ra, fa, kb, rb, fb = rhs(y, w2[0], vs[0], tab, par, law, lawp, F0, rw, pt, AUTO, Jb0)
+    Fe, I, ka, ra, kb, rb, fb = rhs(y, w2[0], vs[0], tab, par, law, lawp, F0, rw, pt, AUTO, Jb0)
     _record(rec, 0, tb[0], y, I, Fe, NY)
     row = 1
     for seg in range(len(v0)):
@@ -831,7 +829,7 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
                 last = True
             mode = on_stop(y, W, tab, par, law, lawp, ft, rw, pt, Jb0)
             if not (have and mode == FREE):
-                Fe, I, ka, ra, fa, kb, rb, fb = rhs(y, W, vd, tab, par, law, lawp, ft, rw, pt, mode, Jn, side)
+                Fe, I, ka, ra, kb, rb, fb = rhs(y, W, vd, tab, par, law, lawp, ft, rw, pt, mode, Jn, side)
                 for c in range(rw.shape[0]):
                     rw0[c] = rw[c]
             for i in range(NY - 2):
@@ -851,12 +849,12 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
             while True:
                 steps += 1
                 g = d * hs
-                _factor(g, Jc, Jb, Jn, ka, ra, fa, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, rf, par[P_CHI] > 0.0)
-                err, Fe2, I2, ka2, ra2, fa2, kb2, rb2, fb2 = _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt,
-                                                                     mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb,
-                                                                     ka, ra, fa, kb, rb, fb, Jb0, n, Mc, piv, Bi,
-                                                                     NY, rc, cl, pos, m, cp, rf, Jn2, vs[seg], fs[seg], active,
-                                                           rtol, sc)
+                _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, rf, par[P_CHI] > 0.0)
+                err, Fe2, I2, ka2, ra2, kb2, rb2, fb2 = _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt,
+                                                                mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb,
+                                                                ka, ra, kb, rb, fb, Jb0, n, Mc, piv, Bi,
+                                                                NY, rc, cl, pos, m, cp, rf, Jn2, vs[seg], fs[seg],
+                                                                active, rtol, sc)
                 if not (err == err):
                     return NONFINITE, row, steps, y
                 if err <= 1.0:
@@ -888,12 +886,12 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
             have = not (clipped or last or mode == HELD)
             if have:
                 _carry(ft, F2, Jn, Jn2, rw0, rw, n, NY)
-                ka, ra, fa, kb, rb, fb = ka2, ra2, fa2, kb2, rb2, fb2
+                ka, ra, kb, rb, fb = ka2, ra2, kb2, rb2, fb2
                 Fe, I = Fe2, I2
             elif not clipped and mode == FREE and vs[seg] == 0.0 and fs[seg] == 0.0:
                 Fe, I = Fe2, I2     # a breakpoint of constant inputs: the last stage is at y
             else:
-                Fe, I, _, _, _, _, _, _ = rhs(y, W, vd, tab, par, law, lawp, k1, rw, pt, AUTO, Jb0)
+                Fe, I, _, _, _, _, _ = rhs(y, W, vd, tab, par, law, lawp, k1, rw, pt, AUTO, Jb0)
             _record(rec, row, t, y, I, Fe, NY)
             row += 1
             h_new = hs * grow_factor(err)
@@ -914,7 +912,7 @@ def evaluate(y, W, vdot, tab, par, law, lawp, ydot, mode):
     """rhs for callers outside the integrator (python-control): returns (force, current)."""
     rw = np.empty(tab.shape[1])
     pt = np.empty(6)
-    Fe, I, _, _, _, _, _, _ = rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, np.empty((0, 4)))
+    Fe, I, _, _, _, _, _ = rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, np.empty((0, 4)))
     return Fe, I
 
 
