@@ -42,8 +42,8 @@ from dfa_model.numerics.trace import StrokeTrace
 from dfa_model.waveforms import Load, Protocol, segments
 
 FORMAT = "dfa-surrogate"
-VERSION = 5     # 5: the behind wake's source interpolated, 15 points (4: material points + the
-                # front layer as an effective point; 3: q_z, q_d, c_ell, beta_f)
+VERSION = 6     # 6: the material lag c_m and the fixed material's gap slope (5: the behind wake's source
+                # interpolated; 4: material points + the front layer as an effective point)
 V_S_REL = 1e-8        # the front's side blends over v_s = V_S_REL l_e per second: continuous, all but sharp
 RTOL = 1e-4           # the fast path's tolerance: the stroke's local error bound is rtol (x + x_e)
 
@@ -108,11 +108,14 @@ class Surrogate:
              layer's width, a table column); inf: never (the lumped circuit)
     c_w      the wakes' width over the layer's (their renewal length; the ahead wake's
              mean gap column is computed for it)
+    c_m      the material lag over the layer's width: the layer's material follows the
+             front only once the front is c_m w_f from it (a play; 0: at once), and within
+             the lag the front's motion changes the material's gap instead of renewing it
     info     provenance: how the maps were built and fitted, training errors
     """
 
     def __init__(self, family, params: Parameters, x_grid, tables, n_points=0, c_ell=1.2, info=None, c_w=2.0,
-                 v_s=None):
+                 v_s=None, c_m=0.0):
         self.family = family
         self.params = params
         self.x_grid = np.ascontiguousarray(x_grid, dtype=float)
@@ -128,6 +131,7 @@ class Surrogate:
         self.x_e = float(self.x_grid[-1])
         self.c_ell = float(c_ell)
         self.c_w = float(c_w)
+        self.c_m = float(c_m)
         # the speed over which the front's side blends (dl_z/dt, m/s): a scale, not a fit
         self.v_s = float(v_s) if v_s is not None else V_S_REL * params.l_e
         self.info = dict(info or {})
@@ -186,22 +190,26 @@ class Surrogate:
         """Positions of the named states in the kernel's state vector."""
         return [i for _, i in self._names]
 
-    def _kernel_inputs(self, averaged=False, k_extra=0.0, V_amp=None):
+    def _kernel_inputs(self, averaged=False, k_extra=0.0, V_amp=None, lag=True):
         """(par, scales) for the kernel, kept between calls (the kernels only read them):
         rebuilt when anything they are made of changed (the attributes are public)."""
-        key = (bool(averaged), float(k_extra), V_amp, self.c_ell, self.c_w, self.v_s, self.n_points, self.x_e,
-               self._law)
+        key = (bool(averaged), float(k_extra), V_amp, lag, self.c_ell, self.c_w, self.c_m, self.v_s, self.n_points,
+               self.x_e, self._law)
         hit = self._inputs.get(key)
         if hit is not None and hit[0] is self.params:
             return hit[1], hit[2]
         if len(self._inputs) > 32:
             self._inputs.clear()
-        par = self.par(averaged, k_extra)
+        par = self.par(averaged, k_extra, lag)
         sc = self.scales(V_amp) if V_amp is not None else None
         self._inputs[key] = (self.params, par, sc)
         return par, sc
 
-    def par(self, averaged=False, k_extra=0.0) -> np.ndarray:
+    def par(self, averaged=False, k_extra=0.0, lag=True) -> np.ndarray:
+        """The kernel's parameter vector. lag=False: without the material lag (c_m), whose
+        play the compiled stepper renews between its steps (the kernel's _replay): the
+        continuous-time evaluations (python-control, the equilibria, the input gains) have
+        no such hook, and renew the layer at the front's speed as c_m = 0 does."""
         p = self.params
         out = np.zeros(sk.NPAR)
         out[sk.P_XE], out[sk.P_B], out[sk.P_M], out[sk.P_K] = self.x_e, p.b, p.m, p.k + k_extra
@@ -216,6 +224,7 @@ class Surrogate:
         out[sk.P_ITAUL] = 1.0 / (p.rho_l * p.eps_l) if const else 0.0
         out[sk.P_IWB] = 1.0 / self.c_w
         out[sk.P_VS] = self.v_s
+        out[sk.P_DM] = self.c_m if (lag and self.has_wakes) else 0.0
         out[sk.P_IU0] = 1.0 / (p.t_lz + out[sk.P_T0])
         return out
 
@@ -233,6 +242,8 @@ class Surrogate:
         # took 5x the steps for no stroke accuracy (the force's error from either stays
         # below the stroke's)
         sc[sk.QF:sk.NODE0] = qs
+        # the material lag's anchor is a memory renewed between steps (its rate is 0)
+        sc[sk.SM] = 1.0
         sc[sk.NODE0:sk.NODE0 + 2 * self.n_points] = qs
         return sc
 
@@ -310,7 +321,7 @@ class Surrogate:
         y[self._index()] = xs
         y[-2], y[-1] = V, F
         ydot = np.zeros(self.ny)
-        Fe, I = sk.evaluate(y, V * V if W is None else W, float(vdot), self.tables, self._kernel_inputs()[0], self._law,
+        Fe, I = sk.evaluate(y, V * V if W is None else W, float(vdot), self.tables, self._kernel_inputs(lag=False)[0], self._law,
                             self._lawp,
                             ydot, sk.AUTO)
         return ydot[self._index()], I
@@ -328,7 +339,7 @@ class Surrogate:
         y = np.zeros(self.ny)
         y[sk.X] = min(max(x, 0.0), self.x_e)
         a, b = np.zeros(self.ny), np.zeros(self.ny)
-        par = self.par()
+        par = self.par(lag=False)
         y[-2] = 0.0
         if self.series:
             y[sk.VD] = 0.0
@@ -440,7 +451,8 @@ class Surrogate:
         y[sk.X] = x
         y[-2], y[-1] = V, F
         ydot = np.zeros(self.ny)
-        Fe, _ = sk.evaluate(y, V * V, 0.0, self.tables, self.par(), self._law, self._lawp, ydot, sk.FREE)
+        Fe, _ = sk.evaluate(y, V * V, 0.0, self.tables, self.par(lag=False), self._law, self._lawp, ydot,
+                             sk.FREE)
         return float(Fe - F - self.params.k * x)
 
     def linearize(self, V, F, charges=None, freeze_charge=False):
@@ -487,7 +499,7 @@ class Surrogate:
     def to_dict(self) -> dict:
         return {"format": FORMAT, "version": VERSION, "family": self.family, "params_toml": self.params.to_toml(),
                 "x_grid": self.x_grid.tolist(), "tables": self.tables.tolist(), "n_points": self.n_points,
-                "c_ell": self.c_ell if np.isfinite(self.c_ell) else None, "c_w": self.c_w,
+                "c_ell": self.c_ell if np.isfinite(self.c_ell) else None, "c_w": self.c_w, "c_m": self.c_m,
                 "states": self.state_names,
                 "info": self.info}
 

@@ -147,10 +147,10 @@ def test_recommended_point_meets_spec_on_full_model(design):
 def test_recommendation_the_full_model_rejects_moves_into_the_window(params):
     """A tight drift limit at slow inversion, on a surrogate whose period-mean stroke
     sits a few um off the full model's there (the charge family with its earlier
-    constants: 11 points, c_ell 1.8, c_w 4; the default's recommendation passes the full
+    constants: 11 points, c_ell 1.8, c_w 4, no material lag; the default's recommendation passes the full
     model's check here): the recommendation 1.25 f_min fails on the full model, so the
     design walks up the window until the full model meets the limits, and says so."""
-    surrogate = reduced.charge(params, n_points=11, c_ell=1.8, c_w=4.0)
+    surrogate = reduced.charge(params, n_points=11, c_ell=1.8, c_w=4.0, c_m=0.0)
     lim = dict(max_ripple=120e-6, max_drift=1.5e-6, horizon=60.0, slew_rate=700e6, current_limit=20e-3)
     d = design_inversion(surrogate, V, F, **lim)
     assert d.feasible and d.verified["meets"], d.reason

@@ -10,6 +10,7 @@ import pytest
 import reduced
 from dfa_model import PhysicsWarning, Protocol, preset, simulate
 from dfa_model.waveforms import Bipolar, Unipolar
+from dfa_model.numerics import surrogate_kernel as sk
 from reduced import frozen
 from reduced.compare import KEYS, hold_speed
 from reduced.fitting import Condition, Envelope
@@ -100,9 +101,10 @@ def test_matched_dielectrics_hold_the_stroke():
     """tau_l = tau_f: no interface charge builds up, the stroke does not decay."""
     p = preset("vshape-table1")
     p = p.replace(rho_l=p.rho_f * p.eps_f / p.eps_l)
-    r = reduced.charge(p).simulate(Protocol.dc(6000.0, 30.0), 5.0)
-    assert abs(r.q_f).max() < 1e-12 and np.all(np.abs(r.y_end[:-2]) < 1e-12 + np.abs(r.y_end[:-2]) * (
-        np.arange(r.y_end.size - 2) < 2))
+    s = reduced.charge(p)
+    r = s.simulate(Protocol.dc(6000.0, 30.0), 5.0)
+    charges = [i for name, i in s._names if name[0] in "qP"]
+    assert abs(r.q_f).max() < 1e-12 and np.all(np.abs(r.y_end[charges]) < 1e-12)
     assert r.final_stroke == pytest.approx(r.trace(1.0), rel=1e-6)
 
 
@@ -116,7 +118,9 @@ def test_polarity_symmetry():
     t = np.linspace(0, 10, 101)
     assert np.allclose(a.trace(t), b.trace(t), rtol=1e-6, atol=1e-12)
     assert np.allclose(a.q_f[-1], -b.q_f[-1], rtol=1e-6)
-    assert np.allclose(a.y_end[2:-2], -b.y_end[2:-2], rtol=1e-5, atol=1e-12)
+    odd = [i for name, i in s._names if name[0] in "qP"]      # the charges; the stroke and
+    assert np.allclose(a.y_end[odd], -b.y_end[odd], rtol=1e-5, atol=1e-12)     # the lag's anchor are even
+    assert a.y_end[sk.SM] == pytest.approx(b.y_end[sk.SM], rel=1e-6)
 
 
 @pytest.mark.parametrize("frequency", [30.0, 0.3])
@@ -299,3 +303,23 @@ def test_cli_compare_json(fitted, tmp_path, capsys):
     rc = main(["compare", str(tmp_path / "missing.json"), "--voltage", "6000", "--duration", "1"])
     assert rc == 2
     assert "cannot read" in capsys.readouterr().err
+
+
+def test_material_lag_leaves_the_dc_creep_alone():
+    """The layer's material lag (c_m, a play renewed between steps) changes nothing where
+    the front moves on: under the DC hold after a reset the stroke falls step by step
+    (a kinked play made the integrator zig-zag there, 500 of 1074 steps upward and the
+    unzipping 66 % slow at the default tolerance), at the lag-free speed and at the speed
+    of a run at rtol 1e-7."""
+    s = reduced.charge(preset("vshape-table1"))
+    assert s.c_m > 0
+    proto = Protocol.reset_then_hold(6000.0, 20.0)
+    r = s.simulate(proto, 4.0)
+    hold = r.t > 3.2
+    assert np.all(np.diff(r.x[hold]) <= 0.0)
+    tight = s.simulate(proto, 4.0, rtol=1e-7)
+    s0 = reduced.charge(preset("vshape-table1"), c_m=0.0)
+    free = s0.simulate(proto, 4.0)
+    assert r.unzipping_speed == pytest.approx(tight.unzipping_speed, rel=0.01)
+    assert r.unzipping_speed == pytest.approx(free.unzipping_speed, rel=0.01)
+

@@ -36,6 +36,13 @@ State y (NY = NODE0 + 2 n + 2; a state the actuator does not have stays 0):
     X, VEL, VD, QF, PF      stroke, velocity (a mass), V_d (R_s), layer charge and polarization
     QB, PB, QA, PA          the wakes: the zipped material just behind the layer and the
                             unzipped material just ahead of it (charge, polarization)
+    SM                      a memory, not a rate: the anchor a of a play operator, the
+                            layer's material lagging the front by s = a + l_z(x) (m of
+                            zipped length), clipped to the lag c_m w_f (par P_DM = c_m)
+                            plus a band; renewed after each accepted step (_replay), its
+                            rate 0. Within the lag the front's motion changes the
+                            material's gap (table column GIU) instead of renewing it, so a
+                            held front's jitter no longer mixes the wakes into the layer
     NODE0 + i               material point i's charge, i < n (at s_i = i l_e / (n - 1))
     NODE0 + n + i           its polarization
     NY - 2, NY - 1          the inputs V and F, states with a constant slope on each segment
@@ -60,16 +67,17 @@ from ..physics.equations import j_and_slope, j_of_E
 from .stepping import grow_factor, shrink_factor, to_stop
 
 # state indices
-X, VEL, VD, QF, PF, QB, PB, QA, PA = range(9)
-NODE0 = 9
-NCORE = 11         # X .. PA and the inputs V, F (at NY - 2, NY - 1)
+X, VEL, VD, QF, PF, QB, PB, QA, PA, SM = range(10)
+NODE0 = 10
+NCORE = 12         # X .. SM and the inputs V, F (at NY - 2, NY - 1)
 # table columns (per stroke grid point); the material points' inverse gaps follow
-C0, C1, C2, PAA, IUF, T0F, WF, DLZ, LZ, CAP, I0, I1, J0, J1, IUA = range(15)
-NFIX = 15
+C0, C1, C2, PAA, IUF, T0F, WF, DLZ, LZ, CAP, I0, I1, J0, J1, IUA, GIU = range(16)
+NFIX = 16
+LAG_BAND = 1.0    # the renewal sets in over this many material lags beyond the lag
 # parameters
 (P_XE, P_B, P_M, P_K, P_RS, P_CHI, P_TAUP, P_TAUF, P_EPSL, P_T0, P_ICELL, P_AVG, P_N, P_LE, P_ITAUL,
- P_CONST, P_IWB, P_IU0, P_VS) = range(19)
-NPAR = 19
+ P_CONST, P_IWB, P_IU0, P_VS, P_DM) = range(20)
+NPAR = 20
 # record columns
 R_T, R_X, R_V, R_QF, R_PF, R_VD, R_VOLT, R_F, R_I, R_FE = range(10)
 NREC = 10
@@ -113,6 +121,23 @@ def table_row(tab, xe, x, rw):
     # the material points' gaps enter only their own (slow) rates: linear pieces do
     for c in range(NFIX, tab.shape[1]):
         rw[c] = tab[i, c] * (1.0 - f) + tab[i + 1, c] * f
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def table_value(tab, xe, x, c):
+    """One column c < NFIX of table_row at stroke x (the same cubic Hermite)."""
+    n = tab.shape[0]
+    u = min(max(x, 0.0), xe) / xe * (n - 1)
+    i = int(u)
+    if i > n - 2:
+        i = n - 2
+    f = u - i
+    f2 = f * f
+    f3 = f2 * f
+    a, b = tab[i, c], tab[i + 1, c]
+    ma = 0.5 * (b - tab[i - 1, c]) if i > 0 else b - a
+    mb = 0.5 * (tab[i + 2, c] - a) if i + 2 < n else b - a
+    return (2.0 * f3 - 3.0 * f2 + 1.0) * a + (f3 - 2.0 * f2 + f) * ma + (-2.0 * f3 + 3.0 * f2) * b + (f3 - f2) * mb
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -265,7 +290,20 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     ydot[X] = xd
     # the front layer (an effective material point) and its wakes (zipped just behind:
     # the zipped gap; unzipped just ahead: the band's mean gap), each with its own rates
-    _point(par, law, lawp, Vd, W, qf, Pf, rw[IUF], rw[T0F], pt)
+    iuf = rw[IUF]
+    lag = par[P_DM] * rw[WF]
+    sr = 0.0
+    if lag > 0.0 and rw[DLZ] > 0.0:
+        # the layer's material lags the front by s = clip(y[SM] + l_z, -lag, lag) (a play
+        # operator: y[SM] is its anchor, renewed after each accepted step, _replay); within
+        # the lag the front's motion changes the material's gap at the fixed material's
+        # slope (frozen.fixed_material_slope, 27x the moving frame's on Table 1 at 0.8 mm)
+        # instead of renewing it: the polarity that zips further charges the layer faster.
+        # The modulation vanishes at the lag's edges, where a front that moves on sits
+        sr = y[SM] + rw[LZ]
+        u = max(-1.0, min(1.0, sr / lag))
+        iuf *= 1.0 + rw[GIU] * u * lag * (1.0 - u * u) ** 2 / rw[DLZ]
+    _point(par, law, lawp, Vd, W, qf, Pf, iuf, rw[T0F], pt)
     ydot[QF] = pt[0]
     ydot[PF] = pt[1]
     qb, Pb, qa, Pa = y[QB], y[PB], y[QA], y[PA]
@@ -280,6 +318,7 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     # over the speed v_s (par P_VS, all but sharp: blending over creep speeds cost the
     # creep's physics, 40 % of the unzipping speed at v_s ~ the creep)
     ld = rw[DLZ] * xd
+    ydot[SM] = 0.0
     ka, kb = -1, -1
     ra, rbs, fb = 0.0, 0.0, 0.0     # rbs: the behind wake's rate in its source points
     if n >= 2 and par[P_ICELL] > 0.0:
@@ -289,9 +328,16 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
             wa = 1.0 if side > 0.0 else 0.0
         else:
             vs_ = par[P_VS]
-            root = math.sqrt(ld * ld + vs_ * vs_)
-            sp = root - vs_                              # |ld|, smooth at 0
-            wa = 0.5 * (1.0 + ld / root) if root > 0.0 else 0.5      # the share advancing
+            lm = ld
+            if par[P_DM] > 0.0:
+                # the layer renews only where the front drags its material along: beyond the
+                # lag's edges (smoothly over LAG_BAND lags; whichever way the front moves)
+                lag = par[P_DM] * rw[WF]
+                e = min(1.0, max(0.0, (abs(sr) - lag) / (LAG_BAND * lag)))
+                lm = ld * e * e * (3.0 - 2.0 * e)
+            root = math.sqrt(lm * lm + vs_ * vs_)
+            sp = root - vs_                              # |lm|, smooth at 0
+            wa = 0.5 * (1.0 + lm / root) if root > 0.0 else 0.5      # the share advancing
         wb = 1.0 - wa
         rf = sp * par[P_ICELL] / rw[WF]
         rw_ = sp * par[P_IWB] / rw[WF]
@@ -559,9 +605,9 @@ def _mirror(Jc, Jb, cl, m, n, pol):
     the stroke and its velocity (and the force input). Without the polarization branch
     (pol False) the points' P rows are zero and stay as they are."""
     for ci in range(m):
-        sc_ = 1.0 if (cl[ci] == X or cl[ci] == VEL or cl[ci] == NCORE - 1) else -1.0
+        sc_ = 1.0 if (cl[ci] == X or cl[ci] == VEL or cl[ci] == SM or cl[ci] == NCORE - 1) else -1.0
         for ri in range(m):
-            sr = 1.0 if (cl[ri] == X or cl[ri] == VEL or cl[ri] == NCORE - 1) else -1.0
+            sr = 1.0 if (cl[ri] == X or cl[ri] == VEL or cl[ri] == SM or cl[ri] == NCORE - 1) else -1.0
             Jc[ri, ci] *= sr * sc_
         for i in range(n):
             Jb[i, 0, ci] *= -sc_
@@ -583,6 +629,7 @@ def _active_states(par, n, NY):
     active[QA] = chain
     active[PB] = chain and par[P_CHI] > 0.0
     active[PA] = chain and par[P_CHI] > 0.0
+    active[SM] = False       # a memory (rate 0, fixed within a step): no Jacobian column
     for i in range(n):
         active[NODE0 + i] = True
         active[NODE0 + n + i] = par[P_CHI] > 0.0
@@ -624,7 +671,7 @@ def _kept_jacobian(y, yJ, js, clJ, cl, m, active, sc, NY, mode, ramps):
     dev = 0.0
     for i in range(NY - 2):
         if active[i]:
-            ref = yJ[i] if (i == X or i == VEL) else -yJ[i]
+            ref = yJ[i] if (i == X or i == VEL or i == SM) else -yJ[i]
             dev = max(dev, abs(y[i] - ref) / (abs(y[i]) + sc[i]))
     return dev <= JAC_TOL
 
@@ -709,6 +756,17 @@ def _clip(y, xe):
 
 
 @njit(cache=True, _nrt=False)
+def _replay(y, tab, par, xe):
+    """The play operator's anchor after an accepted step: the lag clipped at the new
+    stroke (to the band's outer edge, where the renewal is whole and flat: a step that
+    starts there meets no kink), less its zipped length."""
+    lz = table_value(tab, xe, y[X], LZ)
+    lim = (1.0 + LAG_BAND) * par[P_DM] * table_value(tab, xe, y[X], WF)
+    s = min(lim, max(-lim, y[SM] + lz))
+    y[SM] = s - lz
+
+
+@njit(cache=True, _nrt=False)
 def _land(y, yt, xe, last, V_end, F_end, NY):
     """The accepted state yt into y, clipped to the stops (_clip); a step that ends the
     segment lands exactly on the breakpoint's inputs. Returns whether it was clipped."""
@@ -740,7 +798,7 @@ def _step_jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, s
         js[J_USES] += 1.0
         _mirror(Jc, Jb, cl, m, n, par[P_CHI] > 0.0)
         for i in range(NY - 2):
-            if not (i == X or i == VEL):
+            if not (i == X or i == VEL or i == SM):
                 yJ[i] = -yJ[i]
         js[J_V] = -js[J_V]
     else:
@@ -881,6 +939,8 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
             t = t_end if last else t + hs
             clipped = _land(y, yt, xe, last, v0[seg] + vs[seg] * (t_end - tb[seg]),
                             f0[seg] + fs[seg] * (t_end - tb[seg]), NY)
+            if par[P_DM] > 0.0:
+                _replay(y, tab, par, xe)
             # the last stage is f at the new state: the next step's start (first same as
             # last), unless the inputs moved (a breakpoint), a stop clipped it or held it
             have = not (clipped or last or mode == HELD)
