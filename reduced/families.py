@@ -37,11 +37,14 @@ N_POINTS = 15          # material points of the charge family (2.9 mm apart on T
 C_ELL = 1.2            # the layer's renewal length over its width (fit()'s one number)
 C_W = 2.0              # the wakes' width over the layer's
 # the layer's material lag over its width (a play: surrogate_kernel's SM): within it the
-# front's jitter modulates the material's gap instead of renewing the layer. Chosen on the
-# development devices: 0.01-0.05 hold the 10 Hz PI hold's tracking within 16 % of the full
-# model's on four holds (16-26 % without); 0.03 met every goal in 135 of 168 cells (133
-# without, 130-133 at 0.01, 0.02, 0.05 and 0.1)
-C_M = 0.03
+# front's jitter does not renew the layer (and modulates the material's gap). Off by
+# default: 0.003-0.05 hold the 10 Hz PI hold's tracking within 16 % of the full model's
+# on four development holds (16-26 % without), but they also freeze the front's linear
+# exchange of material under small motion, which drives the DC-amplitude loop's growing
+# oscillation: with c_m = 0.03 the surrogate held 6 of 8 such loops (0.5-2.8 um RMS) that
+# the full model cannot hold (78-283 um), while without the lag it fails in all 8 as the
+# full model does (docs/guide/surrogates.md, "Closed loops, fast")
+C_M = 0.0
 
 
 def effective_point(params, a: float, b: float) -> tuple[float, float]:
