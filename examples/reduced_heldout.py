@@ -6,7 +6,7 @@ fit never saw. Writes a Markdown table and a CSV (examples/figures/reduced_heldo
 
 Goals (issue 23): stroke RMS <= 2 % of range, DC unzipping speed <= 5 %, drift over the
 run within max(1 um, 20 %) with the right sign. The surrogate is the unfitted charge
-family (reduced.charge: c_ell = 1.2, c_w = 2, 15 material points, no material lag); nothing is
+family (reduced.charge: c_ell = 1.2, c_w = 2, c_m = 0.03, c_adv = 0.5, 15 material points); nothing is
 tuned here. Then the 10 Hz PI stroke hold on each device at two references: the
 surrogate's tracking RMS within 1.2x the full model's; and the same gains on a DC
 amplitude, which the full model may not hold: the surrogate must lose the hold where it

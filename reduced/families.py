@@ -37,14 +37,17 @@ N_POINTS = 15          # material points of the charge family (2.9 mm apart on T
 C_ELL = 1.2            # the layer's renewal length over its width (fit()'s one number)
 C_W = 2.0              # the wakes' width over the layer's
 # the layer's material lag over its width (a play: surrogate_kernel's SM): within it the
-# front's jitter does not renew the layer (and modulates the material's gap). Off by
-# default: 0.003-0.05 hold the 10 Hz PI hold's tracking within 16 % of the full model's
-# on four development holds (16-26 % without), but they also freeze the front's linear
-# exchange of material under small motion, which drives the DC-amplitude loop's growing
-# oscillation: with c_m = 0.03 the surrogate held 6 of 8 such loops (0.5-2.8 um RMS) that
-# the full model cannot hold (78-283 um), while without the lag it fails in all 8 as the
-# full model does (docs/guide/surrogates.md, "Closed loops, fast")
-C_M = 0.0
+# front's jitter does not mix the wakes into the layer and moves the layer's charge along
+# the material at C_ADV of the renewal's advection. Chosen on the development devices
+# (four 10 Hz PI holds, the same gains on a DC amplitude, the 168 cells): c_m 0.03 with
+# c_adv 0.5 tracks the holds at 1.05-1.17x the full model's RMS (1.16-1.26x without the
+# lag) and loses every DC hold the full model loses; c_adv 0 (the layer frozen within the
+# lag) tracked at 1.00-1.13x but held 2 of those 4 DC loops and 4 of 4 on a random draw
+# (0.5-2.8 um RMS against the full model's 78-283 um), c_adv 0.25 one of them; c_adv 0.75
+# tracked at 1.10-1.19x; 134 of 168 cells (135 without the lag: +-2 cells is the
+# floating point's noise there)
+C_M = 0.03
+C_ADV = 0.5
 
 
 def effective_point(params, a: float, b: float) -> tuple[float, float]:
@@ -88,7 +91,7 @@ def lumped(params, n_grid: int = 161, force_scale: float = 1.0, rate_scale: floa
 
 
 def charge(params, n_grid: int = 161, c_ell: float = C_ELL, n_points: int = N_POINTS, c_w: float = C_W,
-           c_m: float = C_M) -> Surrogate:
+           c_m: float = C_M, c_adv: float = C_ADV) -> Surrogate:
     """Material points, the front layer and its wakes read off the full model
     (frozen.material_tables; c_ell: the layer's renewal length over its width, fit's
     number; c_w: the wakes' width over the layer's)."""
@@ -96,7 +99,7 @@ def charge(params, n_grid: int = 161, c_ell: float = C_ELL, n_points: int = N_PO
     xg, tab = frozen.material_tables(model, n_grid, n_points, c_w)
     a, _ = frozen.zipped_rates(frozen.plain(model))
     info = {"source": "full model's frozen-stroke maps (material points and the front layer)", "tau": -1.0 / a}
-    return Surrogate("charge", model.params, xg, tab, n_points, c_ell, info, c_w, c_m=c_m)
+    return Surrogate("charge", model.params, xg, tab, n_points, c_ell, info, c_w, c_m=c_m, c_adv=c_adv)
 
 
 def build(params, family: str, **kw) -> Surrogate:

@@ -76,7 +76,10 @@ def from_dict(d: dict) -> Surrogate:
     c_m = d.get("c_m", 0.0)
     if isinstance(c_m, bool) or not isinstance(c_m, (int, float)) or not (math.isfinite(c_m) and c_m >= 0):
         raise ValueError(f"c_m: got {c_m!r}, expected a finite number >= 0 (0: no material lag)")
-    s = Surrogate(d["family"], params, x_grid, tables, n_points, c_ell, info, d["c_w"], c_m=c_m)
+    c_adv = d.get("c_adv", 1.0)
+    if isinstance(c_adv, bool) or not isinstance(c_adv, (int, float)) or not (0.0 <= c_adv <= 1.0):
+        raise ValueError(f"c_adv: got {c_adv!r}, expected a number in [0, 1] (the advection kept within the lag)")
+    s = Surrogate(d["family"], params, x_grid, tables, n_points, c_ell, info, d["c_w"], c_m=c_m, c_adv=c_adv)
     if not (np.all(s.tables[:, sk.WF] > 0) and np.all(s.tables[:, sk.CAP] > 0)):
         raise ValueError("tables: a layer width or capacitance <= 0, expected > 0 at every stroke (the file is "
                          "damaged: fit it again with dfa reduce)")

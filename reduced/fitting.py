@@ -118,7 +118,8 @@ def full_runs(params: Parameters, conditions, executor=None, progress=True, desc
 def _apply(base, family, theta, n_grid=161):
     if family == "charge":
         return type(base)(base.family, base.params, base.x_grid, base.tables, base.n_points, math.exp(theta[0]),
-                          info=base.info, c_w=base.c_w, v_s=base.v_s, c_m=base.c_m)
+                          info=base.info, c_w=base.c_w, v_s=base.v_s, c_m=base.c_m,
+                          c_adv=base.c_adv)
     return families.lumped(base.params, n_grid, force_scale=theta[0], rate_scale=theta[1])
 
 

@@ -109,13 +109,17 @@ class Surrogate:
     c_w      the wakes' width over the layer's (their renewal length; the ahead wake's
              mean gap column is computed for it)
     c_m      the material lag over the layer's width: the layer's material follows the
-             front only once the front is c_m w_f from it (a play; 0: at once), and within
-             the lag the front's motion changes the material's gap instead of renewing it
+             front only once the front is c_m w_f from it (a play; 0: at once): within the
+             lag the front's motion does not mix the wakes into the layer, moves its charge
+             along the material at c_adv of the renewal's advection, and changes the
+             material's gap
+    c_adv    the share of the advection kept within the lag (1: all; 0: the layer frozen,
+             which calls unstable DC loops stable)
     info     provenance: how the maps were built and fitted, training errors
     """
 
     def __init__(self, family, params: Parameters, x_grid, tables, n_points=0, c_ell=1.2, info=None, c_w=2.0,
-                 v_s=None, c_m=0.0):
+                 v_s=None, c_m=0.0, c_adv=1.0):
         self.family = family
         self.params = params
         self.x_grid = np.ascontiguousarray(x_grid, dtype=float)
@@ -132,6 +136,7 @@ class Surrogate:
         self.c_ell = float(c_ell)
         self.c_w = float(c_w)
         self.c_m = float(c_m)
+        self.c_adv = float(c_adv)
         # the speed over which the front's side blends (dl_z/dt, m/s): a scale, not a fit
         self.v_s = float(v_s) if v_s is not None else V_S_REL * params.l_e
         self.info = dict(info or {})
@@ -193,8 +198,8 @@ class Surrogate:
     def _kernel_inputs(self, averaged=False, k_extra=0.0, V_amp=None, lag=True):
         """(par, scales) for the kernel, kept between calls (the kernels only read them):
         rebuilt when anything they are made of changed (the attributes are public)."""
-        key = (bool(averaged), float(k_extra), V_amp, lag, self.c_ell, self.c_w, self.c_m, self.v_s, self.n_points,
-               self.x_e, self._law)
+        key = (bool(averaged), float(k_extra), V_amp, lag, self.c_ell, self.c_w, self.c_m, self.c_adv, self.v_s,
+               self.n_points, self.x_e, self._law)
         hit = self._inputs.get(key)
         if hit is not None and hit[0] is self.params:
             return hit[1], hit[2]
@@ -225,6 +230,7 @@ class Surrogate:
         out[sk.P_IWB] = 1.0 / self.c_w
         out[sk.P_VS] = self.v_s
         out[sk.P_DM] = self.c_m if (lag and self.has_wakes) else 0.0
+        out[sk.P_ADV] = self.c_adv
         out[sk.P_IU0] = 1.0 / (p.t_lz + out[sk.P_T0])
         return out
 
@@ -499,7 +505,7 @@ class Surrogate:
     def to_dict(self) -> dict:
         return {"format": FORMAT, "version": VERSION, "family": self.family, "params_toml": self.params.to_toml(),
                 "x_grid": self.x_grid.tolist(), "tables": self.tables.tolist(), "n_points": self.n_points,
-                "c_ell": self.c_ell if np.isfinite(self.c_ell) else None, "c_w": self.c_w, "c_m": self.c_m,
+                "c_ell": self.c_ell if np.isfinite(self.c_ell) else None, "c_w": self.c_w, "c_m": self.c_m, "c_adv": self.c_adv,
                 "states": self.state_names,
                 "info": self.info}
 

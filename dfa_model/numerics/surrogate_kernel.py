@@ -41,8 +41,8 @@ State y (NY = NODE0 + 2 n + 2; a state the actuator does not have stays 0):
                             zipped length), clipped to the lag c_m w_f (par P_DM = c_m)
                             plus a band; renewed after each accepted step (_replay), its
                             rate 0. Within the lag the front's motion changes the
-                            material's gap (table column GIU) instead of renewing it, so a
-                            held front's jitter no longer mixes the wakes into the layer
+                            material's gap (table column GIU) and does not mix the wakes
+                            into the layer (its advection kept at par P_ADV = c_adv)
     NODE0 + i               material point i's charge, i < n (at s_i = i l_e / (n - 1))
     NODE0 + n + i           its polarization
     NY - 2, NY - 1          the inputs V and F, states with a constant slope on each segment
@@ -76,8 +76,8 @@ NFIX = 16
 LAG_BAND = 1.0    # the renewal sets in over this many material lags beyond the lag
 # parameters
 (P_XE, P_B, P_M, P_K, P_RS, P_CHI, P_TAUP, P_TAUF, P_EPSL, P_T0, P_ICELL, P_AVG, P_N, P_LE, P_ITAUL,
- P_CONST, P_IWB, P_IU0, P_VS, P_DM) = range(20)
-NPAR = 20
+ P_CONST, P_IWB, P_IU0, P_VS, P_DM, P_ADV) = range(21)
+NPAR = 21
 # record columns
 R_T, R_X, R_V, R_QF, R_PF, R_VD, R_VOLT, R_F, R_I, R_FE = range(10)
 NREC = 10
@@ -325,25 +325,31 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
         if side != 0.0:
             # a side given (linear in the front's speed: an analysis of one branch)
             sp = side * ld
-            wa = 1.0 if side > 0.0 else 0.0
+            A = sp if side > 0.0 else 0.0
+            B = sp - A
         else:
             vs_ = par[P_VS]
-            lm = ld
+            root = math.sqrt(ld * ld + vs_ * vs_)
+            sp = root - vs_                              # |ld|, smooth at 0
+            lds = sp * ld / root if root > 0.0 else 0.0  # ld, with the same smoothing
+            e = 1.0
             if par[P_DM] > 0.0:
-                # the layer renews only where the front drags its material along: beyond the
-                # lag's edges (smoothly over LAG_BAND lags; whichever way the front moves)
+                # upwind renewal = central advection (reversible, linear in the speed) +
+                # mixing (|speed|); within the material lag the mixing stops and the
+                # advection keeps c_adv of itself (par P_ADV): a jitter moves the layer's
+                # charge along the material and back. Frozen (c_adv 0), the layer lost the
+                # exchange that makes a DC-amplitude PI loop oscillate in the full model
                 lag = par[P_DM] * rw[WF]
                 e = min(1.0, max(0.0, (abs(sr) - lag) / (LAG_BAND * lag)))
-                lm = ld * e * e * (3.0 - 2.0 * e)
-            root = math.sqrt(lm * lm + vs_ * vs_)
-            sp = root - vs_                              # |lm|, smooth at 0
-            wa = 0.5 * (1.0 + lm / root) if root > 0.0 else 0.5      # the share advancing
-        wb = 1.0 - wa
-        rf = sp * par[P_ICELL] / rw[WF]
-        rw_ = sp * par[P_IWB] / rw[WF]
-        ydot[QF] += rf * (wa * (qa - qf) + wb * (qb - qf))
-        ydot[PF] += rf * (wa * (Pa - Pf) + wb * (Pb - Pf))
-        ra, rb = rw_ * wa, rw_ * wb
+                e = e * e * (3.0 - 2.0 * e)
+            adv = par[P_ADV] + (1.0 - par[P_ADV]) * e
+            A = 0.5 * (e * sp + adv * lds)                    # the advancing side's rate (m/s)
+            B = 0.5 * (e * sp - adv * lds)                    # the retreating side's
+        cf = par[P_ICELL] / rw[WF]
+        cw = par[P_IWB] / rw[WF]
+        ydot[QF] += cf * (A * (qa - qf) + B * (qb - qf))
+        ydot[PF] += cf * (A * (Pa - Pf) + B * (Pb - Pf))
+        ra, rb = cw * A, cw * B
         # each wake's source. Ahead: the first unzipped material point (the material the
         # front advances into keeps its own history there). Behind: the zipped material a
         # wake width back, interpolated between the points around it (the layer at the
