@@ -93,6 +93,31 @@ JAC_USES = 50
 J_FRESH, J_USES, J_M, J_V = range(4)
 
 
+@njit(cache=True, _nrt=False, inline="always")
+def _cell(tab, xe, x):
+    """(i, f): the grid interval [i, i + 1] of stroke x (clamped to [0, x_e]) and the
+    fraction f into it."""
+    n = tab.shape[0]
+    u = min(max(x, 0.0), xe) / xe * (n - 1)
+    i = int(u)
+    if i > n - 2:
+        i = n - 2
+    return i, u - i
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _hermite(tab, i, c, f):
+    """Column c's cubic Hermite with centred slopes (per grid step) at fraction f of
+    interval i."""
+    n = tab.shape[0]
+    f2 = f * f
+    f3 = f2 * f
+    a, b = tab[i, c], tab[i + 1, c]
+    ma = 0.5 * (b - tab[i - 1, c]) if i > 0 else b - a
+    mb = 0.5 * (tab[i + 2, c] - a) if i + 2 < n else b - a
+    return (2.0 * f3 - 3.0 * f2 + 1.0) * a + (f3 - 2.0 * f2 + f) * ma + (-2.0 * f3 + 3.0 * f2) * b + (f3 - f2) * mb
+
+
 @njit(cache=True, _nrt=False)
 def table_row(tab, xe, x, rw):
     """The maps at stroke x (clamped to [0, x_e]): cubic Hermite with centred slopes, so
@@ -101,23 +126,9 @@ def table_row(tab, xe, x, rw):
     Rosenbrock stage a few micrometres off the step's start saw the stiff mechanics
     answer that jump (the error estimate grew by up to 1000 during a slow creep). The
     material points' gaps, which enter only their own slow rates, are linear."""
-    n = tab.shape[0]
-    u = min(max(x, 0.0), xe) / xe * (n - 1)
-    i = int(u)
-    if i > n - 2:
-        i = n - 2
-    f = u - i
-    f2 = f * f
-    f3 = f2 * f
-    h00 = 2.0 * f3 - 3.0 * f2 + 1.0
-    h10 = f3 - 2.0 * f2 + f
-    h01 = -2.0 * f3 + 3.0 * f2
-    h11 = f3 - f2
+    i, f = _cell(tab, xe, x)
     for c in range(NFIX):
-        a, b = tab[i, c], tab[i + 1, c]
-        ma = 0.5 * (b - tab[i - 1, c]) if i > 0 else b - a            # slopes per grid step
-        mb = 0.5 * (tab[i + 2, c] - a) if i + 2 < n else b - a
-        rw[c] = h00 * a + h10 * ma + h01 * b + h11 * mb
+        rw[c] = _hermite(tab, i, c, f)
     # the material points' gaps enter only their own (slow) rates: linear pieces do
     for c in range(NFIX, tab.shape[1]):
         rw[c] = tab[i, c] * (1.0 - f) + tab[i + 1, c] * f
@@ -125,19 +136,9 @@ def table_row(tab, xe, x, rw):
 
 @njit(cache=True, _nrt=False, inline="always")
 def table_value(tab, xe, x, c):
-    """One column c < NFIX of table_row at stroke x (the same cubic Hermite)."""
-    n = tab.shape[0]
-    u = min(max(x, 0.0), xe) / xe * (n - 1)
-    i = int(u)
-    if i > n - 2:
-        i = n - 2
-    f = u - i
-    f2 = f * f
-    f3 = f2 * f
-    a, b = tab[i, c], tab[i + 1, c]
-    ma = 0.5 * (b - tab[i - 1, c]) if i > 0 else b - a
-    mb = 0.5 * (tab[i + 2, c] - a) if i + 2 < n else b - a
-    return (2.0 * f3 - 3.0 * f2 + 1.0) * a + (f3 - 2.0 * f2 + f) * ma + (-2.0 * f3 + 3.0 * f2) * b + (f3 - f2) * mb
+    """One column c < NFIX of table_row at stroke x."""
+    i, f = _cell(tab, xe, x)
+    return _hermite(tab, i, c, f)
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -339,7 +340,6 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
                 # advection keeps c_adv of itself (par P_ADV): a jitter moves the layer's
                 # charge along the material and back. Frozen (c_adv 0), the layer lost the
                 # exchange that makes a DC-amplitude PI loop oscillate in the full model
-                lag = par[P_DM] * rw[WF]
                 e = min(1.0, max(0.0, (abs(sr) - lag) / (LAG_BAND * lag)))
                 e = e * e * (3.0 - 2.0 * e)
             adv = par[P_ADV] + (1.0 - par[P_ADV]) * e
@@ -611,9 +611,9 @@ def _mirror(Jc, Jb, cl, m, n, pol):
     the stroke and its velocity (and the force input). Without the polarization branch
     (pol False) the points' P rows are zero and stay as they are."""
     for ci in range(m):
-        sc_ = 1.0 if (cl[ci] == X or cl[ci] == VEL or cl[ci] == SM or cl[ci] == NCORE - 1) else -1.0
+        sc_ = 1.0 if (cl[ci] == X or cl[ci] == VEL or cl[ci] == NCORE - 1) else -1.0
         for ri in range(m):
-            sr = 1.0 if (cl[ri] == X or cl[ri] == VEL or cl[ri] == SM or cl[ri] == NCORE - 1) else -1.0
+            sr = 1.0 if (cl[ri] == X or cl[ri] == VEL or cl[ri] == NCORE - 1) else -1.0
             Jc[ri, ci] *= sr * sc_
         for i in range(n):
             Jb[i, 0, ci] *= -sc_
@@ -677,7 +677,7 @@ def _kept_jacobian(y, yJ, js, clJ, cl, m, active, sc, NY, mode, ramps):
     dev = 0.0
     for i in range(NY - 2):
         if active[i]:
-            ref = yJ[i] if (i == X or i == VEL or i == SM) else -yJ[i]
+            ref = yJ[i] if (i == X or i == VEL) else -yJ[i]
             dev = max(dev, abs(y[i] - ref) / (abs(y[i]) + sc[i]))
     return dev <= JAC_TOL
 
@@ -804,7 +804,7 @@ def _step_jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, s
         js[J_USES] += 1.0
         _mirror(Jc, Jb, cl, m, n, par[P_CHI] > 0.0)
         for i in range(NY - 2):
-            if not (i == X or i == VEL or i == SM):
+            if not (i == X or i == VEL):
                 yJ[i] = -yJ[i]
         js[J_V] = -js[J_V]
     else:
