@@ -13,7 +13,7 @@ from dfa_model.io.parameters import from_dict as params_from_dict
 from dfa_model.numerics import surrogate_kernel as sk
 
 from .families import FAMILIES
-from .surrogate import FORMAT, VERSION, Surrogate
+from .surrogate import FORMAT, GIU_V7, VERSION, Surrogate
 
 FIELDS = ("family", "params_toml", "x_grid", "tables", "n_points", "c_ell", "c_w")   # what a surrogate file holds
 
@@ -40,9 +40,10 @@ def from_dict(d: dict) -> Surrogate:
     if not isinstance(d, dict) or d.get("format") != FORMAT:
         raise ValueError(f"format: not a surrogate file (expected \"format\": \"{FORMAT}\", as dfa reduce --out "
                          f"writes)")
-    if d.get("version") != VERSION:
-        raise ValueError(f"version: got {d.get('version')!r}, expected {VERSION}: this toolkit reads surrogate files "
-                         f"of version {VERSION} (fit it again: dfa reduce)")
+    version = d.get("version")
+    if version not in (VERSION - 1, VERSION) or isinstance(version, bool):
+        raise ValueError(f"version: got {version!r}, expected {VERSION - 1} or {VERSION}: this toolkit reads surrogate "
+                         f"files of those versions (fit it again: dfa reduce)")
     for key in FIELDS:
         if key not in d:
             raise ValueError(f"{key}: missing (a surrogate file holds {', '.join(FIELDS)}; fit it again: dfa reduce)")
@@ -57,6 +58,10 @@ def from_dict(d: dict) -> Surrogate:
     except ParameterError as exc:
         raise ValueError(f"params_toml: {exc}") from None
     x_grid, tables = _array("x_grid", d["x_grid"], 1), _array("tables", d["tables"], 2)
+    if version == VERSION - 1 and tables.shape[1] > GIU_V7:
+        # version 7 kept the fixed material's gap slope there, which modulated the layer's gap within
+        # the material lag: dropped (it changed neither the 10 Hz holds nor the development panel)
+        tables = np.delete(tables, GIU_V7, axis=1)
     if x_grid.size < 2 or not (x_grid[0] >= 0 and np.all(np.diff(x_grid) > 0)):
         raise ValueError("x_grid: expected at least 2 strokes, increasing from >= 0 (m)")
     n_points = d["n_points"]

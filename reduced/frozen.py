@@ -192,24 +192,6 @@ def front_point(plain_model: DFAModel, a_f: float, b_f: float) -> tuple[float, f
     return float(iu), float(t0f)
 
 
-def fixed_material_slope(model: DFAModel, x: float) -> float:
-    """d ln(charging rate)/dx (1/m) of the layer's material held fixed while the front
-    moves: h^T dB/dx / h^T B at the force weights h of stroke x (the moving frame's own
-    change is in the table's x dependence; this is the reversible part of a small
-    oscillation, some %/um near the front)."""
-    h = force_sensitivity(model, x)
-    _, B = electrical_lti(model, x)
-    hb = float(h @ B)
-    x_e = model.kin.x_e
-    dx = 1e-4 * x_e
-    x0, x1 = max(x - dx, 0.0), min(x + dx, x_e)
-    if not (abs(hb) > 0 and x1 > x0):
-        return 0.0
-    _, B1 = electrical_lti(model, x1)
-    _, B0 = electrical_lti(model, x0)
-    return float(h @ (B1 - B0)) / ((x1 - x0) * hb)
-
-
 def point_positions(model: DFAModel, n_points: int) -> np.ndarray:
     """The material points' positions along the electrode (both ends included)."""
     return np.linspace(0.0, model.params.l_e, n_points) if n_points >= 2 else np.zeros(0)
@@ -250,7 +232,6 @@ def material_tables(model: DFAModel, n_grid: int = 161, n_points: int = 11, c_w:
     af, bf, wf = np.array([front_layer(pm, x, (a, b)) for x in xf]).T
     pts = np.array([front_point(pm, fa, fb) for fa, fb in zip(af, bf)])
     tab[:, sk.IUF], tab[:, sk.T0F] = np.interp(xg, xf, pts[:, 0]), np.interp(xg, xf, pts[:, 1])
-    tab[:, sk.GIU] = np.interp(xg, xf, [fixed_material_slope(pm, x) for x in xf])
     ok = np.isfinite(wf) & (wf > 0)
     wf = np.interp(xf, xf[ok], wf[ok]) if ok.any() else np.ones_like(xf)
     tab[:, sk.WF] = np.maximum(np.interp(xg, xf, wf), W_F_MIN * u0(pm))

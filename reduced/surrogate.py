@@ -42,8 +42,10 @@ from dfa_model.numerics.trace import StrokeTrace
 from dfa_model.waveforms import Load, Protocol, segments
 
 FORMAT = "dfa-surrogate"
-VERSION = 7     # 7: the advection kept within the lag, c_adv (6: the material lag c_m, the layer frozen within
-                # it; 5: the behind wake's source interpolated; 4: material points + the front layer)
+VERSION = 8     # 8: no fixed-material gap column (7: the advection kept within the lag, c_adv; 6: the material
+                # lag c_m, the layer frozen within it; 5: the behind wake's source interpolated; 4: material
+                # points + the front layer)
+GIU_V7 = 15     # the column version 7 had after the fixed ones' first 15 (the fixed material's gap slope)
 V_S_REL = 1e-8        # the front's side blends over v_s = V_S_REL l_e per second: continuous, all but sharp
 RTOL = 1e-4           # the fast path's tolerance: the stroke's local error bound is rtol (x + x_e)
 

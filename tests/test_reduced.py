@@ -267,6 +267,27 @@ def test_save_load_roundtrip(fitted, tmp_path):
         reduced.load(tmp_path / "other.json")
 
 
+def test_version_7_files_still_read(fitted, tmp_path):
+    """A version-7 file had one more map column (the fixed material's gap slope, at index
+    15): read, that column dropped, it runs as the version-8 file of the same surrogate;
+    a version-6 file (the layer frozen within the lag) is refused."""
+    from reduced.surrogate import GIU_V7, VERSION
+    d = fitted.to_dict()
+    assert d["version"] == VERSION == 8
+    old = json.loads(json.dumps(d))
+    old["version"] = 7
+    old["tables"] = [row[:GIU_V7] + [123.0] + row[GIU_V7:] for row in d["tables"]]
+    (tmp_path / "v7.json").write_text(json.dumps(old))
+    back = reduced.load(tmp_path / "v7.json")
+    assert np.array_equal(back.tables, fitted.tables)
+    proto = Protocol.reset_then_hold(6000, 5)
+    assert np.array_equal(back.simulate(proto, 5.0).rec, fitted.simulate(proto, 5.0).rec)
+    old["version"] = 6
+    (tmp_path / "v6.json").write_text(json.dumps(old))
+    with pytest.raises(ValueError, match="version: got 6, expected 7 or 8"):
+        reduced.load(tmp_path / "v6.json")
+
+
 def test_bad_input_errors():
     s = reduced.charge(preset("vshape-table1"))
     with pytest.raises(ValueError, match="rtol"):

@@ -40,9 +40,9 @@ State y (NY = NODE0 + 2 n + 2; a state the actuator does not have stays 0):
                             layer's material lagging the front by s = a + l_z(x) (m of
                             zipped length), clipped to the lag c_m w_f (par P_DM = c_m)
                             plus a band; renewed after each accepted step (_replay), its
-                            rate 0. Within the lag the front's motion changes the
-                            material's gap (table column GIU) and does not mix the wakes
-                            into the layer (its advection kept at par P_ADV = c_adv)
+                            rate 0. Within the lag the front's motion does not mix the
+                            wakes into the layer (its advection kept at par P_ADV =
+                            c_adv)
     NODE0 + i               material point i's charge, i < n (at s_i = i l_e / (n - 1))
     NODE0 + n + i           its polarization
     NY - 2, NY - 1          the inputs V and F, states with a constant slope on each segment
@@ -71,8 +71,8 @@ X, VEL, VD, QF, PF, QB, PB, QA, PA, SM = range(10)
 NODE0 = 10
 NCORE = 12         # X .. SM and the inputs V, F (at NY - 2, NY - 1)
 # table columns (per stroke grid point); the material points' inverse gaps follow
-C0, C1, C2, PAA, IUF, T0F, WF, DLZ, LZ, CAP, I0, I1, J0, J1, IUA, GIU = range(16)
-NFIX = 16
+C0, C1, C2, PAA, IUF, T0F, WF, DLZ, LZ, CAP, I0, I1, J0, J1, IUA = range(15)
+NFIX = 15
 LAG_BAND = 1.0    # the renewal sets in over this many material lags beyond the lag
 # parameters
 (P_XE, P_B, P_M, P_K, P_RS, P_CHI, P_TAUP, P_TAUF, P_EPSL, P_T0, P_ICELL, P_AVG, P_N, P_LE, P_ITAUL,
@@ -291,20 +291,15 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     ydot[X] = xd
     # the front layer (an effective material point) and its wakes (zipped just behind:
     # the zipped gap; unzipped just ahead: the band's mean gap), each with its own rates
-    iuf = rw[IUF]
     lag = par[P_DM] * rw[WF]
     sr = 0.0
     if lag > 0.0 and rw[DLZ] > 0.0:
         # the layer's material lags the front by s = clip(y[SM] + l_z, -lag, lag) (a play
-        # operator: y[SM] is its anchor, renewed after each accepted step, _replay); within
-        # the lag the front's motion changes the material's gap at the fixed material's
-        # slope (frozen.fixed_material_slope, 27x the moving frame's on Table 1 at 0.8 mm)
-        # instead of renewing it: the polarity that zips further charges the layer faster.
-        # The modulation vanishes at the lag's edges, where a front that moves on sits
+        # operator: y[SM] is its anchor, renewed after each accepted step, _replay). Its gap
+        # stays the moving frame's: modulating it at the fixed material's slope within the
+        # lag changed neither the holds nor the panel (docs/guide/surrogates.md)
         sr = y[SM] + rw[LZ]
-        u = max(-1.0, min(1.0, sr / lag))
-        iuf *= 1.0 + rw[GIU] * u * lag * (1.0 - u * u) ** 2 / rw[DLZ]
-    _point(par, law, lawp, Vd, W, qf, Pf, iuf, rw[T0F], pt)
+    _point(par, law, lawp, Vd, W, qf, Pf, rw[IUF], rw[T0F], pt)
     ydot[QF] = pt[0]
     ydot[PF] = pt[1]
     qb, Pb, qa, Pa = y[QB], y[PB], y[QA], y[PA]
