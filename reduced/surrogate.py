@@ -112,9 +112,8 @@ class Surrogate:
              mean gap column is computed for it)
     c_m      the material lag over the layer's width: the layer's material follows the
              front only once the front is c_m w_f from it (a play; 0: at once): within the
-             lag the front's motion does not mix the wakes into the layer, moves its charge
-             along the material at c_adv of the renewal's advection, and changes the
-             material's gap
+             lag the front's motion does not mix the wakes into the layer and moves its
+             charge along the material at c_adv of the renewal's advection
     c_adv    the share of the advection kept within the lag (1: all; 0: the layer frozen,
              which calls unstable DC loops stable)
     info     provenance: how the maps were built and fitted, training errors
