@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import sys
 
+import numpy as np
+
 from dfa_model import cli as base
 from dfa_model.io.fileio import check_writable, write_atomic
 
@@ -80,7 +82,7 @@ def cmd_hold(args) -> int:
     print("  (drift: stroke lost against the commanded stroke over the last inversion period, positive when lost; "
           "P_hs: what a hard-switched source spends)", file=out)
     if args.plot:
-        _plot(cmp, args.plot)
+        _plot(cmp, args.plot, 1.0 / c.frequency if c.frequency else None)
         print(f"wrote {args.plot}", file=sys.stderr)
     if args.json:
         ctrl = {k: getattr(c, k) for k in ("kp", "ki", "v_ff", "v_max", "dt", "mode", "frequency", "phase_margin",
@@ -89,17 +91,46 @@ def cmd_hold(args) -> int:
     return 0
 
 
-def _plot(cmp, path):
+def _plot(cmp, path, period=None):
+    """Stroke of the three schemes; below, the deviation from the commanded stroke of the
+    two that hold it (on the stroke's scale they lie on top of each other): the ripple
+    faint, its mean over each inversion period (`period`, s) bold; and the loop's
+    amplitude."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, (ax, axa) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, height_ratios=[3, 1.3])
-    for name, r in cmp["runs"].items():
-        ax.plot(r.t, r.x * 1e3, label=name, lw=1)
-    ax.axhline(cmp["x_ref"] * 1e3, color="k", ls=":", lw=0.8, label="commanded")
+    fig, (ax, axd, axa) = plt.subplots(3, 1, figsize=(8, 7.5), sharex=True, height_ratios=[3, 1.6, 1.3])
+    held = {"inversion": dict(ls="--", lw=1.2), "closed loop": dict(lw=1.2)}
+    x_ref = cmp["x_ref"]
+    t_end = max(float(r.t[-1]) for r in cmp["runs"].values())
+    t_settle = min(2.0, 0.2 * t_end)        # the pull-in's overshoot would set the deviation's scale
+    lo, hi = np.inf, -np.inf
+    for k, (name, r) in enumerate(cmp["runs"].items()):
+        ax.plot(r.t, r.x * 1e3, label=name, color=f"C{k}", **held.get(name, dict(lw=1)))
+        if name not in held:
+            continue
+        dev = (r.x - x_ref) * 1e6
+        axd.plot(r.t, dev, color=f"C{k}", lw=0.5, alpha=0.3)
+        late = dev[r.t >= t_settle]
+        if late.size:
+            lo, hi = min(lo, float(late.min())), max(hi, float(late.max()))
+        if period and t_end > 2 * period:
+            # the mean over each inversion period: the drift, without the ripple
+            tg = np.arange(0.0, t_end, period / 50.0)
+            dg = np.interp(tg, r.t, dev)
+            m = np.convolve(dg, np.ones(50) / 50.0, mode="valid")
+            axd.plot(tg[25:25 + len(m)], m, color=f"C{k}", label=f"{name} (period mean)", **held[name])
+    ax.axhline(x_ref * 1e3, color="k", ls=":", lw=0.8, label="commanded")
     ax.set_ylabel("stroke (mm)")
     ax.legend(loc="best")
     ax.set_title("Holding a stroke on the full model")
+    axd.axhline(0.0, color="k", ls=":", lw=0.8)
+    axd.set_ylabel("stroke - commanded (um)")
+    if np.isfinite(lo):
+        pad = 0.1 * max(hi - lo, 1e-3)
+        axd.set_ylim(lo - pad, hi + pad)
+    if axd.get_legend_handles_labels()[0]:
+        axd.legend(loc="best", fontsize="small")
     r = cmp["runs"]["closed loop"]
     axa.plot(r.t, r.A / 1e3, color="C2", lw=1)
     axa.set_ylabel("loop amplitude (kV)")
