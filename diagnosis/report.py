@@ -71,6 +71,7 @@ def to_json(D) -> dict:
         "resolution_first": D.raised,
         "drive_timing": D.final.timing or None,
         "zeros_fitted": zeros_fitted(D) or None,
+        "charge_hidden": charge_hidden(D) or None,
         "headline": headline(D),
         "trends": D.trends,
         "candidates": D.rounds,
@@ -222,6 +223,12 @@ def conclusion(D) -> str:
         parts.append(f"the sensor zeros were fitted in all {len(blind)} recordings (the model never rests on its "
                      f"stop in them), and they take up a constant stroke offset: a stiffness is hard to tell from "
                      f"them - record a rest stretch at 0 V before the drive (zeros_fitted)")
+    hidden = charge_hidden(D)
+    charge_physics = {"field_dependent_resistivity", "polarization_branch"}
+    if hidden and len(hidden) == len(D.dataset.recordings) and not charge_physics & {e.name for e in D.kept}:
+        parts.append(f"no recording holds one polarity for {HOLD_MIN:g} s or more: the interface charge stays near "
+                     f"zero, so a field-dependent resistivity or a polarization branch hardly shows in the stroke - "
+                     f"record a DC hold (the paper's reset + hold) to test for them (charge_hidden)")
     if corr:
         parts.append("nominal value(s) corrected: " + ", ".join(corr))
     if D.unverified:
@@ -279,6 +286,37 @@ def zeros_fitted(D) -> list:
         if sim is not None and np.count_nonzero(sim - f.offsets.get(r.name, 0.0) <= 0.0) < REST_MIN:
             out.append(r.name)
     return out
+
+
+HOLD_MIN = 2.0      # s: the longest one-polarity stretch below which a drive keeps the charge near zero
+
+
+def longest_hold(r) -> float:
+    """The longest stretch (s) over which recording r's drive, read off its voltage record,
+    keeps one polarity (consecutive stretches of one sign joined: a staircase is one)."""
+    switches = getattr(r, "switches", None)
+    if switches is None or not len(getattr(r, "levels", ())):
+        return float(getattr(r, "duration", math.inf))      # no switch read off it: one stretch
+    edges = np.concatenate([[float(r.t[0])], np.asarray(switches, float), [float(r.t[-1])]])
+    floor = 0.05 * max(abs(r.amplitude), 1.0)        # a level this small is 0 V (a pause)
+    best, start, sign = 0.0, None, 0
+    for a, b, v in zip(edges[:-1], edges[1:], r.levels):
+        sg = 0 if abs(v) <= floor else (1 if v > 0 else -1)
+        if sg != sign:
+            start, sign = a, sg
+        if sg != 0:
+            best = max(best, b - start)
+    return best
+
+
+def charge_hidden(D) -> list:
+    """The recordings whose drive never holds one polarity for HOLD_MIN s (a polarity
+    inversion throughout): there the interface charge stays near zero and the charge's
+    physics - a field law, a polarization branch - hardly moves the stroke. On the lab rig
+    under a 1 Hz full inversion the trial's laws and slow branch left their baselines at
+    1.1-1.2 noises held out and the proof's law and branch at the noise
+    (docs/guide/diagnosis.md)."""
+    return [r.name for r in D.dataset.recordings if longest_hold(r) < HOLD_MIN]
 
 
 def unexplained(D) -> dict | None:

@@ -243,6 +243,44 @@ def test_a_fitted_sensor_zero_is_told_as_blind_to_a_stiffness():
     assert np.count_nonzero(rests + 3e-6 <= 0) >= REST_MIN
 
 
+def test_a_drive_that_never_holds_a_polarity_is_told_as_blind_to_the_charge():
+    """Under a polarity inversion throughout (1 Hz: 0.5 s a polarity) the interface charge
+    stays near zero, and the lab rig's field laws and branch left their baselines within
+    1.1 noises: the verdict says so when every recording is such a drive and neither is
+    named. A reset + hold (its 10 s DC), unipolar pulses then DC, and a staircase (one
+    polarity over its steps) hold a polarity long enough; pauses at 0 V split nothing."""
+    import importlib
+    from types import SimpleNamespace as NS
+    import numpy as np
+    from diagnosis.report import HOLD_MIN, charge_hidden, conclusion, longest_hold
+    dg = importlib.import_module("diagnosis.diagnose")
+
+    def rec(name, switches, levels, T):
+        return NS(name=name, t=np.array([0.0, T]), switches=np.array(switches, float), levels=tuple(levels),
+                  amplitude=6000.0, hold_voltage=levels[-1], duration=T)
+    inv = rec("inv", np.arange(0.5, 23.0, 0.5), [6000.0 * (-1) ** k for k in range(46)], 23.0)
+    reset_hold = rec("rh", np.arange(1 / 60, 3.0, 1 / 60), [6000.0 * (-1) ** k for k in range(180)], 23.0)
+    unipolar = rec("uni", [0.25, 0.5, 0.75, 1.0], [5000.0, 0.0, 5000.0, 0.0, 5000.0], 11.0)
+    stair = rec("stair", [1.5, 3.0], [3000.0, 4500.0, 6000.0], 4.5)
+    paused = rec("paused", [1.0, 1.05, 2.0], [6000.0, 2.0, 6000.0, -6000.0], 3.0)
+    assert longest_hold(inv) == pytest.approx(0.5) and longest_hold(reset_hold) == pytest.approx(20.0, abs=0.02)
+    assert longest_hold(unipolar) == pytest.approx(10.0) and longest_hold(stair) == pytest.approx(4.5)
+    assert longest_hold(paused) == pytest.approx(1.0) and 1.0 < HOLD_MIN     # a 0 V pause ends a stretch
+
+    def D(recs, kept=()):
+        f = NS(heldout_rmse=2e-6, train_rmse=2e-6, sigma=2e-6, timing={}, heldout=[recs[-1].name],
+               simulated={}, offsets={})
+        return dg.Diagnosis(dataset=NS(recordings=recs), baseline=f, final=f, kept=list(kept), rounds=[],
+                            windows=[], trends=[], wall_time=0.0)
+    blind = D([inv, paused])
+    assert charge_hidden(blind) == ["inv", "paused"] and "record a DC hold" in conclusion(blind)
+    mixed = D([inv, reset_hold])
+    assert charge_hidden(mixed) == ["inv"] and "DC hold" not in conclusion(mixed)
+    assert charge_hidden(D([unipolar, stair])) == []
+    law = NS(name="field_dependent_resistivity", kind="physics", key="field_dependent_resistivity", variant="")
+    assert "DC hold" not in conclusion(D([inv, paused], kept=[law]))
+
+
 def test_a_stopped_search_resumes_exactly_where_it_stopped(null):
     """A fit stopped by max_nfev and resumed (fit(resume=...)) goes on from its own end:
     its globals, its recordings' factors as they were (not less a condition's mean, as a

@@ -213,3 +213,20 @@ def test_lab_exports_a_bom_a_semicolon_and_a_units_row(tmp_path):
     path.write_text("\n".join(["time;voltage;force;stroke", "ms;kV;lbf;mm"] + lines[2:]) + "\n")
     with pytest.raises(RecordingError, match=r"^lab\.csv, row 2: force in unit 'lbf' \(units row\); allowed: n, mn"):
         read_csv(path)
+
+
+def test_repetitions_ending_on_either_polarity_are_one_condition(dataset):
+    """A polarity inversion's recording ends on +V or -V by the phase it stops at, and the
+    model is odd in V: repetitions that end on opposite polarities are one condition
+    (a split had held out a single recording of a 1 Hz inversion dataset, at "-5990 V")."""
+    t = np.round(np.arange(0.0, 2.0 + 5e-4, 1e-3), 9)
+    for i, (amp, end) in enumerate([(V, 0.0), (V, 0.5), (V + 10.0, 0.25), (7000.0, 0.0), (7000.0, 0.5)]):
+        v = np.where(np.floor((t + end) * 2.0) % 2 == 0, amp, -amp)        # 1 Hz, shifted phase
+        cols = {"time": t, "voltage": v, "force": np.full_like(t, F), "stroke": 6e-4 * (1 - np.exp(-t / 0.01))}
+        write(dataset / f"r{i}.csv", cols)
+    ds = read_dataset(dataset)
+    ends = {r.name: np.sign(r.hold_voltage) for r in ds.recordings}
+    assert len(set(ends.values())) == 2                 # both polarities among the hold levels
+    groups = ds.conditions()
+    assert sorted(groups) == [(6000.0, F), (7000.0, F)]
+    assert sorted(len(v) for v in groups.values()) == [2, 3]

@@ -163,12 +163,14 @@ class Recording:
         return float(np.mean(self.force))
 
     def condition(self) -> tuple:
-        """(hold voltage, mean force) of its condition: recordings of one condition
-        (repetitions) share it. In a dataset, the group's (group_conditions); alone, its
-        own, rounded to the nearest 10 V and 10 mN."""
+        """(hold voltage magnitude, mean force) of its condition: recordings of one
+        condition (repetitions) share it. In a dataset, the group's (group_conditions);
+        alone, its own, rounded to the nearest 10 V and 10 mN. The magnitude: the model
+        is odd in V (a drive and its mirror give one stroke), and a polarity inversion
+        ends on either polarity by the phase its recording stops at."""
         if self.group is not None:
             return self.group
-        return (round(self.hold_voltage, -1), round(self.force_mean, 2))
+        return (round(abs(self.hold_voltage), -1), round(self.force_mean, 2))
 
 
 @dataclass
@@ -858,14 +860,15 @@ def read_dataset(folder) -> Dataset:
 
 
 def group_conditions(recs) -> None:
-    """Group repetitions into conditions: hold voltages within CONDITION_V of each other
-    (relative) and mean forces within CONDITION_F (relative, at least 10 mN) are one
-    condition - a voltage monitor's gain error (0.2 %) and a load cell's noise must not
-    split repetitions. Each recording's `group` becomes its condition's (first member's
-    values, rounded to 10 V and 10 mN)."""
+    """Group repetitions into conditions: hold voltages whose magnitudes lie within
+    CONDITION_V of each other (relative) and mean forces within CONDITION_F (relative, at
+    least 10 mN) are one condition - a voltage monitor's gain error (0.2 %) and a load
+    cell's noise must not split repetitions, nor the polarity a polarity inversion's
+    recording happens to end on (the model is odd in V). Each recording's `group` becomes
+    its condition's (first member's values, rounded to 10 V and 10 mN)."""
     keys = []
     for r in recs:
-        V, F = r.hold_voltage, r.force_mean
+        V, F = abs(r.hold_voltage), r.force_mean
         for k, (V0, F0) in keys:
             if abs(V - V0) <= CONDITION_V * abs(V0) and abs(F - F0) <= max(CONDITION_F * abs(F0), 0.01):
                 r.group = k
