@@ -208,6 +208,21 @@ def test_overshoot_after_a_polarity_switch():
         assert over_r == pytest.approx(over_f, rel=0.2), T
 
 
+@pytest.mark.xfail(strict=True, reason="breakdown 4 (docs/guide/surrogates.md): near the pull-in threshold, after "
+                   "zipping into open material charged from the hinge, the layer holds twice the full model's "
+                   "charge and the last of the stroke snaps off seconds early")
+def test_collapse_near_the_pull_in_threshold():
+    """10 s at 2 kV charge the open actuator (it stays at rest), then 2.75 kV at 2.4 N zips
+    it about 140 um, close to its pull-in threshold; it creeps back to 0 by 17 s in the full
+    model (58 um at 15 s). The surrogate within 20 um of it at 14 and 15 s."""
+    p = preset("vshape-table1")
+    proto = Protocol([Stage(DC(2000.0), 10.0, "a"), Stage(DC(2750.0), 10.0, "b")])
+    f, r = simulate(p, proto, load=2.4), reduced.charge(p).simulate(proto, 2.4)
+    assert f.trace(15.0) > 30e-6                       # the full model still holds part of the stroke
+    for t in (14.0, 15.0):
+        assert abs(r.trace(t) - f.trace(t)) < 20e-6, t
+
+
 def test_hold_speed_of_a_square_wave_is_the_peaks_drift():
     """A drive with dead time drops the stroke to 0 and re-zips it to the same peak every
     period: it does not unzip, though Sec. 3.1's peak-to-end drop over the run says
