@@ -192,7 +192,7 @@ def conclusion(D) -> str:
     timed = D.final.timing
     if timed:
         parts.append(f"the drive's timing was fitted with the model in {len(timed)} of {len(D.dataset.recordings)} "
-                     f"recordings (their resets' switches or hold starts, read off the voltage record to within a "
+                     f"recordings (their drives' switches or hold starts, read off the voltage record to within a "
                      f"sample: drive_timing)")
     r = D.resolution
     if r and r.get("resolution_only"):
