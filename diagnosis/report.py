@@ -132,10 +132,14 @@ def headline(D) -> list:
     mismatch must hide in is the repetition scatter pooled over all conditions (relative:
     it comes from the device's rho_l spread, common to every condition; a per-condition
     SD of two or three repetitions is too rough to judge by), times the condition's
-    speed. Concealed: the baseline's error lies within it."""
+    speed. Concealed: the baseline's error lies within it. A condition whose hold (after
+    its reset) is shorter than HOLD_MIN has no row: a polarity inversion throughout reads
+    as a reset with a hold of a few ms, where a speed means nothing."""
     rows, rel = [], []
     for c, recs in D.dataset.conditions().items():
         t0, t1 = recs[0].reset_end, recs[0].duration
+        if t1 - t0 < HOLD_MIN:
+            continue
         meas = [hold_speed(r.t, r.stroke, t0, t1) for r in recs]
         base = [hold_speed(r.t, D.baseline.simulated[r.name], t0, t1) for r in recs]
         row = {"voltage": c[0], "force": c[1], "repetitions": len(recs), "speed_measured": float(np.mean(meas)),
@@ -514,9 +518,14 @@ def to_markdown(D, report: dict, plots: dict) -> str:
         if D.final.params.N != D.baseline.params.N:
             what = (what + ", " if what else "") + f"N = {D.final.params.N}"
         L.append(f"| + {what} | {um(D.final.train_rmse)} | {um(D.final.heldout_rmse)} | {D.final.bic:.1f} |")
-    L += ["", "Headline metric (average unzipping speed over the hold, um/s; spread: the repetitions' scatter, "
-          "pooled over conditions as a fraction of the speed; concealed: the baseline's error within it):", "",
-          "| condition | measured | spread | baseline error | improved error | concealed |", "|---|---|---|---|---|---|"]
+    if not report["headline"]:
+        L += ["", f"Headline metric (average unzipping speed over the hold): none - no recording holds its voltage "
+              f"for {HOLD_MIN:g} s after its drive's switches, and the paper's speed is read over such a hold."]
+    else:
+        L += ["", "Headline metric (average unzipping speed over the hold, um/s; spread: the repetitions' scatter, "
+              "pooled over conditions as a fraction of the speed; concealed: the baseline's error within it):", "",
+              "| condition | measured | spread | baseline error | improved error | concealed |",
+              "|---|---|---|---|---|---|"]
     for h in report["headline"]:
         f = lambda v: "-" if v is None else f"{v * 1e6:+.3g}"   # noqa: E731
         sd = "-" if h["speed_spread"] is None else f"{h['speed_spread'] * 1e6:.3g}"

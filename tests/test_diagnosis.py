@@ -281,6 +281,27 @@ def test_a_drive_that_never_holds_a_polarity_is_told_as_blind_to_the_charge():
     assert "DC hold" not in conclusion(D([inv, paused], kept=[law]))
 
 
+def test_the_headline_speed_needs_a_hold():
+    """The paper's headline metric is the unzipping speed over the DC hold. A polarity
+    inversion throughout reads as a reset with a hold of a few ms: no row for it (it had
+    reported speeds of -6 um/s with a spread of 73), while a 10 s hold has its row."""
+    from types import SimpleNamespace as NS
+    import numpy as np
+    from diagnosis.report import headline
+    t = np.arange(0.0, 13.0, 1e-3)
+    x = 1e-3 - 2e-5 * np.clip(t - 3.0, 0.0, None)          # creeping at 20 um/s after a 3 s reset
+
+    def D(reset_end):
+        recs = [NS(name=f"r{i}", t=t, stroke=x + 1e-6 * i, reset_end=reset_end, duration=float(t[-1]))
+                for i in range(3)]
+        ds = NS(recordings=recs, conditions=lambda: {(6000.0, 5.0): recs})
+        base = NS(simulated={r.name: x for r in recs})
+        return NS(dataset=ds, baseline=base, final=base, improved=False)
+    rows = headline(D(3.0))
+    assert len(rows) == 1 and rows[0]["speed_measured"] == pytest.approx(20e-6, rel=0.01)
+    assert headline(D(float(t[-1]) - 0.03)) == []
+
+
 def test_a_stopped_search_resumes_exactly_where_it_stopped(null):
     """A fit stopped by max_nfev and resumed (fit(resume=...)) goes on from its own end:
     its globals, its recordings' factors as they were (not less a condition's mean, as a
