@@ -11,6 +11,8 @@ from dfa_model.io.fileio import write_atomic, write_text_atomic
 
 from .improved import entry_parameters, raised_phrases, write_improved, write_protocols
 
+HOLD_MIN = 2.0      # s: a hold (or one-polarity stretch) shorter than this keeps the charge near zero
+
 
 def _fit_dict(f) -> dict | None:
     if f is None:
@@ -292,25 +294,18 @@ def zeros_fitted(D) -> list:
     return out
 
 
-HOLD_MIN = 2.0      # s: the longest one-polarity stretch below which a drive keeps the charge near zero
-
-
 def longest_hold(r) -> float:
-    """The longest stretch (s) over which recording r's drive, read off its voltage record,
-    keeps one polarity (consecutive stretches of one sign joined: a staircase is one)."""
-    switches = getattr(r, "switches", None)
-    if switches is None or not len(getattr(r, "levels", ())):
-        return float(getattr(r, "duration", math.inf))      # no switch read off it: one stretch
-    edges = np.concatenate([[float(r.t[0])], np.asarray(switches, float), [float(r.t[-1])]])
-    floor = 0.05 * max(abs(r.amplitude), 1.0)        # a level this small is 0 V (a pause)
-    best, start, sign = 0.0, None, 0
+    """The longest stretch (s) over which recording r's drive, read off its voltage record
+    (recordings._interpret: a pause's level is 0 exactly), keeps one polarity (consecutive
+    stretches of one sign joined: a staircase is one)."""
+    edges = np.concatenate([[0.0], r.switches, [r.duration]])      # as recordings._drive lays them
+    best, start, sign = 0.0, 0.0, 0.0
     for a, b, v in zip(edges[:-1], edges[1:], r.levels):
-        sg = 0 if abs(v) <= floor else (1 if v > 0 else -1)
-        if sg != sign:
-            start, sign = a, sg
-        if sg != 0:
+        if np.sign(v) != sign:
+            start, sign = a, np.sign(v)
+        if sign:
             best = max(best, b - start)
-    return best
+    return float(best)
 
 
 def charge_hidden(D) -> list:

@@ -228,7 +228,7 @@ def test_a_fitted_sensor_zero_is_told_as_blind_to_a_stiffness():
     t = np.arange(0, 2.0, 1e-3)
     moving = 1e-3 * (1 - np.exp(-t / 0.01)) + 5e-6              # starts with the drive (offset 5 um)
     rests = np.where(t < 0.1, 0.0, 1e-3) - 3e-6                  # 100 samples at rest first (offset -3 um)
-    recs = [NS(name="a"), NS(name="b")]
+    recs = [NS(name=k, switches=np.zeros(0), levels=(6000.0,), duration=20.0) for k in "ab"]   # one DC stretch
 
     def D(sims):
         f = NS(heldout_rmse=2e-6, train_rmse=2e-6, sigma=2e-6, timing={}, heldout=["b"],
@@ -256,13 +256,12 @@ def test_a_drive_that_never_holds_a_polarity_is_told_as_blind_to_the_charge():
     dg = importlib.import_module("diagnosis.diagnose")
 
     def rec(name, switches, levels, T):
-        return NS(name=name, t=np.array([0.0, T]), switches=np.array(switches, float), levels=tuple(levels),
-                  amplitude=6000.0, hold_voltage=levels[-1], duration=T)
+        return NS(name=name, switches=np.array(switches, float), levels=tuple(levels), duration=T)
     inv = rec("inv", np.arange(0.5, 23.0, 0.5), [6000.0 * (-1) ** k for k in range(46)], 23.0)
     reset_hold = rec("rh", np.arange(1 / 60, 3.0, 1 / 60), [6000.0 * (-1) ** k for k in range(180)], 23.0)
     unipolar = rec("uni", [0.25, 0.5, 0.75, 1.0], [5000.0, 0.0, 5000.0, 0.0, 5000.0], 11.0)
     stair = rec("stair", [1.5, 3.0], [3000.0, 4500.0, 6000.0], 4.5)
-    paused = rec("paused", [1.0, 1.05, 2.0], [6000.0, 2.0, 6000.0, -6000.0], 3.0)
+    paused = rec("paused", [1.0, 1.05, 2.0], [6000.0, 0.0, 6000.0, -6000.0], 3.0)   # the reader's 0 V pause
     assert longest_hold(inv) == pytest.approx(0.5) and longest_hold(reset_hold) == pytest.approx(20.0, abs=0.02)
     assert longest_hold(unipolar) == pytest.approx(10.0) and longest_hold(stair) == pytest.approx(4.5)
     assert longest_hold(paused) == pytest.approx(1.0) and 1.0 < HOLD_MIN     # a 0 V pause ends a stretch
