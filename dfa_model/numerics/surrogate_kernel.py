@@ -291,14 +291,6 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     ydot[X] = xd
     # the front layer (an effective material point) and its wakes (zipped just behind:
     # the zipped gap; unzipped just ahead: the band's mean gap), each with its own rates
-    lag = par[P_DM] * rw[WF]
-    sr = 0.0
-    if lag > 0.0 and rw[DLZ] > 0.0:
-        # the layer's material lags the front by s = clip(y[SM] + l_z, -lag, lag) (a play
-        # operator: y[SM] is its anchor, renewed after each accepted step, _replay). Its gap
-        # stays the moving frame's: modulating it at the fixed material's slope within the
-        # lag changed neither the holds nor the panel (docs/guide/surrogates.md)
-        sr = y[SM] + rw[LZ]
     _point(par, law, lawp, Vd, W, qf, Pf, rw[IUF], rw[T0F], pt)
     ydot[QF] = pt[0]
     ydot[PF] = pt[1]
@@ -334,7 +326,13 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
                 # mixing (|speed|); within the material lag the mixing stops and the
                 # advection keeps c_adv of itself (par P_ADV): a jitter moves the layer's
                 # charge along the material and back. Frozen (c_adv 0), the layer lost the
-                # exchange that makes a DC-amplitude PI loop oscillate in the full model
+                # exchange that makes a DC-amplitude PI loop oscillate in the full model.
+                # The layer's material lags the front by s = y[SM] + l_z (a play operator:
+                # y[SM] is its anchor, renewed after each accepted step, _replay); its gap
+                # stays the moving frame's (modulating it within the lag changed neither the
+                # holds nor the panel, docs/guide/surrogates.md)
+                lag = par[P_DM] * rw[WF]
+                sr = y[SM] + rw[LZ]
                 e = min(1.0, max(0.0, (abs(sr) - lag) / (LAG_BAND * lag)))
                 e = e * e * (3.0 - 2.0 * e)
             adv = par[P_ADV] + (1.0 - par[P_ADV]) * e
