@@ -328,9 +328,9 @@ class Surrogate:
         y[self._index()] = xs
         y[-2], y[-1] = V, F
         ydot = np.zeros(self.ny)
-        Fe, I = sk.evaluate(y, V * V if W is None else W, float(vdot), self.tables, self._kernel_inputs(lag=False)[0], self._law,
-                            self._lawp,
-                            ydot, sk.AUTO)
+        par = self._kernel_inputs(lag=False)[0]
+        Fe, I = sk.evaluate(y, V * V if W is None else W, float(vdot), self.tables, par, self._law, self._lawp, ydot,
+                            sk.AUTO)
         return ydot[self._index()], I
 
     def capacitance(self, x):
@@ -506,7 +506,8 @@ class Surrogate:
     def to_dict(self) -> dict:
         return {"format": FORMAT, "version": VERSION, "family": self.family, "params_toml": self.params.to_toml(),
                 "x_grid": self.x_grid.tolist(), "tables": self.tables.tolist(), "n_points": self.n_points,
-                "c_ell": self.c_ell if np.isfinite(self.c_ell) else None, "c_w": self.c_w, "c_m": self.c_m, "c_adv": self.c_adv,
+                "c_ell": self.c_ell if np.isfinite(self.c_ell) else None, "c_w": self.c_w, "c_m": self.c_m,
+                "c_adv": self.c_adv,
                 "states": self.state_names,
                 "info": self.info}
 

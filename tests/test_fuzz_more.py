@@ -282,8 +282,8 @@ def check_compare(summary):
 MDIR = TMP / "models"
 MDIR.mkdir()
 (MDIR / "folder.json").mkdir()
-MODEL_KEYS = ["tables", "x_grid", "params_toml", "n_points", "c_ell", "c_w", "c_m", "c_adv", "family", "info", "states", "format",
-              "version"]
+MODEL_KEYS = ["tables", "x_grid", "params_toml", "n_points", "c_ell", "c_w", "c_m", "c_adv", "family", "info", "states",
+              "format", "version"]
 JSON_HOSTILE = [None, "abc", "", 1, -1, 0, 1.5, 2, 1e308, [], [1.0], [[1.0]], [[1.0, 2.0], [3.0]], {}, {"a": 1}, True,
                 math.nan, math.inf, "charge", "lumped", "dfa-surrogate", 4, ["x", "q_f"]]
 PARAMS_EDITS = [("a = ", "a = -1.0\n#"), ("N = ", "N = 1\n#"), ("[geometry]", "[geometry]\napex = 1.0"),
