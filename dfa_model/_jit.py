@@ -49,7 +49,7 @@ EXPORTS = {
     "kinematics.profile": ("i F1 F1 f", "T2"),
     "kinematics.peano_state": ("f f f", "T6"),
     "kinematics.peano_theta_of_lz": ("f f f", "f"),
-    "surrogate_kernel.integrate": ("F1 F1 F1 F1 F1 F1 F1 F2 F1 i F1 F1 f f F2 i", "S"),
+    "surrogate_kernel.integrate": ("F1 F1 F1 F1 F1 F1 F2 F1 F2 F1 i F1 F1 f f F2 i", "S"),
     "surrogate_kernel.evaluate": ("F1 f f F2 F1 i F1 F1 i", "T2"),
     "surrogate_kernel.pi_loop": ("F1 F2 F1 i F1 F1 f F1 i i i F2", "S"),
 }

@@ -593,16 +593,23 @@ SEGMENT_CACHE_MAX = 20_000                  # largest protocol (segments) whose 
 _SEGMENTS: dict = {}
 
 
+def segment_key(protocol: Protocol, load: Load):
+    """The text of every field a protocol's and load's input segments depend on, or None
+    when they are not only fields (a user waveform, a sampled or callable load)."""
+    if type(protocol) is Protocol and type(load) is Load and type(load.F) is float and \
+            all(type(st.waveform) in _PURE_WAVEFORMS for st in protocol.stages):
+        return repr((load.F, [(type(st.waveform), vars(st.waveform), st.duration) for st in protocol.stages]))
+    return None
+
+
 def segments(protocol: Protocol, load: Load):
     """merge(protocol.piecewise(), load.piecewise(duration)): (t, V0, Vs, F0, Fs), the
     kernels' input segments. Those of recent protocols are kept, keyed on the text of
     every field they depend on (a mutated protocol gets a new key): only for the stock
     waveforms, a constant load and at most SEGMENT_CACHE_MAX segments. The arrays are
     shared: the kernels only read them, and so must callers."""
-    key = None
-    if type(protocol) is Protocol and type(load) is Load and type(load.F) is float and \
-            all(type(st.waveform) in _PURE_WAVEFORMS for st in protocol.stages):
-        key = repr((load.F, [(type(st.waveform), vars(st.waveform), st.duration) for st in protocol.stages]))
+    key = segment_key(protocol, load)
+    if key is not None:
         seg = _SEGMENTS.get(key)
         if seg is not None:
             return seg

@@ -39,7 +39,9 @@ from dfa_model.io.parameters import Parameters
 from dfa_model.io.results import StrokeMetrics
 from dfa_model.numerics.solver import protocol_load
 from dfa_model.numerics.trace import StrokeTrace
-from dfa_model.waveforms import Load, Protocol, segments
+from dfa_model.waveforms import Load, Protocol, segment_key, segments
+
+from . import fast_inversions
 
 FORMAT = "dfa-surrogate"
 VERSION = 8     # 8: no fixed-material gap column (7: the advection kept within the lag, c_adv; 6: the material
@@ -84,6 +86,7 @@ class SurrogateResult(StrokeMetrics):
         self.wall_time = wall_time
         self.n_steps = steps
         self.y_end = y_end
+        self.averaged_windows = []      # (t0, t1) integrated cycle-averaged (simulate's `inversions`)
         self.t, self.x, self.v = rec[:, sk.R_T], rec[:, sk.R_X], rec[:, sk.R_V]
         self.q_f, self.P_f, self.V_d = rec[:, sk.R_QF], rec[:, sk.R_PF], rec[:, sk.R_VD]
         self.V, self.F, self.I, self.Fe = rec[:, sk.R_VOLT], rec[:, sk.R_F], rec[:, sk.R_I], rec[:, sk.R_FE]
@@ -144,6 +147,7 @@ class Surrogate:
         law = from_parameters(params)
         self._law, self._lawp = int(law.law_id), np.ascontiguousarray(law.params, dtype=float)
         self._inputs = {}       # _kernel_inputs
+        self._plans = {}        # _plan
 
     # ------------------------------------------------------------------ structure
     @property
@@ -256,12 +260,15 @@ class Surrogate:
 
     # ------------------------------------------------------------------ fast path
     def simulate(self, protocol, load=None, duration=None, *, rtol=RTOL, y0=None, max_steps=limits.MAX_STEPS,
-                 averaged=None) -> SurrogateResult:
+                 averaged=None, inversions="average") -> SurrogateResult:
         """Run a protocol on the compiled path (dfa_model.numerics.surrogate_kernel). `protocol` and
         `load` as in dfa_model.simulate. `y0`: initial state by name ({'x': ..., 'q_f': ...},
         state_names) or a kernel state vector; default uncharged at rest at x = 0.
         `averaged`: the mean square voltage per segment for the cycle-averaged form
-        (averaged.py), else None."""
+        (averaged.py), else None. `inversions`: 'average' (default) integrates a stage of
+        fast full-duty polarity inversion cycle-averaged but for its last periods
+        (fast_inversions: where the period is under 1 % of every electrical time constant;
+        the result's averaged_windows lists where), 'step' steps every inversion."""
         if not isinstance(protocol, Protocol):
             if duration is None:
                 raise ValueError("duration: required when the protocol is a plain voltage or waveform")
@@ -270,12 +277,35 @@ class Surrogate:
         load = protocol_load(protocol, load)
         if not (isinstance(rtol, (int, float)) and 1e-10 <= rtol <= 0.1):
             raise ValueError(f"rtol: got {rtol!r}, expected a number in [1e-10, 0.1]")
+        if inversions not in ("average", "step"):
+            raise ValueError(f"inversions: got {inversions!r}, expected 'average' or 'step'")
         t0 = time.perf_counter()
-        tb, v0, vs, f0, fs = self._segments(protocol, load)
-        w2 = v0 * v0 if averaged is None else np.asarray(averaged, float)
-        rec, steps, y_end = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps, averaged is not None,
-                                      load.k_load, protocol.amplitude)
-        return SurrogateResult(self, protocol, rec, time.perf_counter() - t0, steps, y_end, load)
+        plan = self._plan(protocol, load) if averaged is None and inversions == "average" else None
+        if plan is not None:
+            tb, v0, vs, f0, fs, w2, gof, windows = plan
+        else:
+            tb, v0, vs, f0, fs = self._segments(protocol, load)
+            w2 = v0 * v0 if averaged is None else np.asarray(averaged, float)
+            gof, windows = None, []
+        rec, steps, y_end = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps,
+                                      averaged is not None or plan is not None, load.k_load, protocol.amplitude, gof)
+        res = SurrogateResult(self, protocol, rec, time.perf_counter() - t0, steps, y_end, load)
+        res.averaged_windows = windows
+        return res
+
+    def _plan(self, protocol, load):
+        """fast_inversions.plan, kept for the protocols of recent calls (keyed as their input
+        segments are; rebuilt when the parameters were replaced)."""
+        key = segment_key(protocol, load)
+        hit = self._plans.get(key) if key is not None else None
+        if hit is not None and hit[0] is self.params:
+            return hit[1]
+        plan = fast_inversions.plan(self, protocol, load)
+        if key is not None:
+            if len(self._plans) > 16:
+                self._plans.clear()
+            self._plans[key] = (self.params, plan)
+        return plan
 
     def _segments(self, protocol, load):
         """The kernel's input segments (dfa_model.waveforms.segments: shared with the full
@@ -304,13 +334,15 @@ class Surrogate:
             raise ValueError(f"y0: stroke x = {y[0]:g} m outside [0, x_e = {self.x_e:g}] m")
         return y
 
-    def _run(self, tb, v0, vs, f0, fs, w2, y, rtol, max_steps, averaged, k_extra=0.0, V_amp=1000.0):
+    def _run(self, tb, v0, vs, f0, fs, w2, y, rtol, max_steps, averaged, k_extra=0.0, V_amp=1000.0, gof=None):
         par, sc = self._kernel_inputs(averaged, k_extra, float(V_amp))
+        if gof is None:
+            gof = np.zeros((len(v0), 2))
         cap = min(64 + 40 * len(v0), 4_000_000)
         h0 = min(1e-4, float(tb[-1] - tb[0]))
         while True:
             rec = _record_buffer(cap)
-            status, rows, steps, y_end = sk.integrate(tb, v0, vs, f0, fs, w2, y, self.tables, par, self._law,
+            status, rows, steps, y_end = sk.integrate(tb, v0, vs, f0, fs, w2, gof, y, self.tables, par, self._law,
                                                       self._lawp, sc, float(rtol), h0, rec, int(max_steps))
             if status == sk.FULL and cap < 16_000_000:
                 cap = 4 * max(cap, rec.shape[0])

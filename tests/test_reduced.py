@@ -252,14 +252,19 @@ def test_stops_are_events():
 
 def test_repeated_runs_keep_only_their_inputs():
     """The merged input segments of a protocol are kept between runs (keyed on its fields,
-    so a changed protocol is rebuilt; shared with the full model's runs); the final state is on the result, not the model."""
+    so a changed protocol is rebuilt; shared with the full model's runs), and so is the
+    surrogate's plan of them with the fast inversions averaged (fast_inversions); the
+    final state is on the result, not the model."""
     s = reduced.charge(preset("vshape-table1"))
     proto = Protocol.reset_then_hold(6000.0, 2.0)
     from dfa_model import Load
     from dfa_model import waveforms
     waveforms._SEGMENTS.clear()
     a, b = s.simulate(proto, 5.0), s.simulate(proto, 5.0)
-    assert len(waveforms._SEGMENTS) == 1 and np.array_equal(a.rec, b.rec)
+    assert len(s._plans) == 1 and np.array_equal(a.rec, b.rec)
+    assert s._plan(proto, Load(5.0)) is s._plan(proto, Load(5.0))
+    s.simulate(proto, 5.0, inversions="step")
+    assert len(waveforms._SEGMENTS) == 1
     assert waveforms.segments(proto, Load(5.0)) is waveforms.segments(proto, Load(5.0))
     assert a.unzipping_speed == b.unzipping_speed
     from dfa_model.numerics import surrogate_kernel as sk

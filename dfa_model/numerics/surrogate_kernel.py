@@ -149,7 +149,7 @@ def _point(par, law, lawp, Vd, W, q, P, iu, t0p, out):
     if par[P_CONST] != 0.0:
         dJ = par[P_ITAUL]
         Jl = sl * dJ
-    elif par[P_AVG] > 0.0:
+    elif par[P_AVG] > 0.0 and W >= 0.0:
         # averaged mode: the law's conductance at the drive's RMS field (the field's sign
         # alternates within a period; its magnitude is what the law sees)
         E = math.sqrt(W) * iu
@@ -266,7 +266,8 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     V = y[NY - 2]
     rs = par[P_RS] > 0.0
     Vd = y[VD] if rs else V
-    avg = par[P_AVG] > 0.0
+    # averaged mode: a segment's mean square voltage W (W < 0: a segment stepped as it is)
+    avg = par[P_AVG] > 0.0 and W >= 0.0
     VV = W if avg else Vd * Vd
     qf, Pf = y[QF], y[PF]
     Fe = rw[C0] * VV + rw[C1] * Vd * qf + rw[C2] * qf * qf
@@ -828,9 +829,13 @@ def _carry(ft, F2, Jn, Jn2, rw0, rw, n, NY):
 
 
 @njit(cache=True)
-def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps):
+def integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps):
     """Integrate over the input segments [tb[k], tb[k+1]] (voltage v0[k] + vs[k] (t - tb[k]),
-    force likewise; w2[k] the mean square voltage in averaged mode). Writes one record
+    force likewise; in averaged mode (par[P_AVG]) w2[k] >= 0 is the segment's mean square
+    voltage, the period mean <V> its voltage, and w2[k] < 0 a segment stepped as it is).
+    gof[k] = (g, W): at segment k's start the charges move by b g (b their input gains at
+    the mean square voltage W, _phase_offset): a cycle-averaged window's period-mean charge
+    against the real waveform's at its phase (reduced.fast_inversions). Writes one record
     row per accepted step (and the start) into rec. Returns (status, rows, steps, y).
 
     Per step: the Jacobian kept across an inversion (_kept_jacobian) or renewed
@@ -873,6 +878,8 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
         t, t_end = tb[seg], tb[seg + 1]
         y[NY - 2], y[NY - 1] = v0[seg], f0[seg]
         W, vd = w2[seg], vs[seg]
+        if gof[seg, 0] != 0.0:
+            _phase_offset(y, gof[seg, 0], gof[seg, 1], tab, par, law, lawp, k1, k2, yt, rw, pt, NY, Jb0)
         m = _columns(active, vs[seg], fs[seg], pos, cl)
         F0[NY - 2], F0[NY - 1] = vs[seg], fs[seg]
         have = False        # ft, Jn, rw0 and the couplings hold f at y (free): the last stage's
@@ -960,6 +967,27 @@ def integrate(tb, v0, vs, f0, fs, w2, y0, tab, par, law, lawp, sc, rtol, h0, rec
     return OK, row, steps, y
 
 
+@njit(cache=True)
+def _phase_offset(y, g, W, tab, par, law, lawp, a, b, yt, rw, pt, NY, Jb0):
+    """y's charges and polarizations += their input gains times g (V s): the gains are the
+    held rates' change from 0 V to 1 V (on V_d too behind R_s) in averaged mode at the mean
+    square voltage W, where the rates are linear in V (the law's conductance at the RMS
+    field)."""
+    for i in range(NY):
+        yt[i] = y[i]
+    yt[NY - 2] = 0.0
+    if par[P_RS] > 0.0:
+        yt[VD] = 0.0
+    rhs(yt, W, 0.0, tab, par, law, lawp, a, rw, pt, HELD, Jb0)
+    yt[NY - 2] = 1.0
+    if par[P_RS] > 0.0:
+        yt[VD] = 1.0
+    rhs(yt, W, 0.0, tab, par, law, lawp, b, rw, pt, HELD, Jb0)
+    for i in range(QF, NY - 2):
+        if i != SM:
+            y[i] += (b[i] - a[i]) * g
+
+
 @njit(cache=True, inline="always")
 def _record(rec, row, t, y, I, Fe, NY):
     rec[row, R_T], rec[row, R_X], rec[row, R_V], rec[row, R_QF], rec[row, R_PF] = t, y[X], y[VEL], y[QF], y[PF]
@@ -994,6 +1022,7 @@ def pi_loop(y0, tab, par, law, lawp, sc, rtol, ctl, n, half, max_steps, out):
     f0 = np.empty(1)
     fs = np.zeros(1)
     w2 = np.empty(1)
+    gof = np.zeros((1, 2))
     rec = np.empty((4096, NREC))
     y = y0.copy()
     acc = 0.0
@@ -1027,7 +1056,7 @@ def pi_loop(y0, tab, par, law, lawp, sc, rtol, ctl, n, half, max_steps, out):
         tb[0], tb[1] = k * dt, (k + 1) * dt
         v0[0], f0[0], w2[0] = V, F, V * V
         y[NY - 2], y[NY - 1] = V, F
-        status, rows, steps, y = integrate(tb, v0, vs, f0, fs, w2, y, tab, par, law, lawp, sc, rtol, h0, rec,
+        status, rows, steps, y = integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0, rec,
                                            max_steps)
         total += steps
         if status != OK:

@@ -1,0 +1,114 @@
+"""Fast polarity inversion integrated cycle-averaged inside a surrogate run
+(reduced.fast_inversions): which stages qualify, the kernel's per-segment averaged mode
+and phase offsets, and the averaged run against the stepped one and the full model."""
+import math
+
+import numpy as np
+import pytest
+
+import reduced
+from dfa_model import Protocol, preset, simulate
+from dfa_model.numerics import surrogate_kernel as sk
+from dfa_model.waveforms import DC, Bipolar, Load, Stage, Unipolar, segments
+from reduced import fast_inversions
+from reduced.compare import rms_difference
+
+
+@pytest.fixture(scope="module")
+def table1():
+    return reduced.charge(preset("vshape-table1"))
+
+
+def test_standard_protocol_reset_is_averaged_but_its_last_periods(table1):
+    proto = Protocol.reset_then_hold(6000.0, 20.0)
+    avg = table1.simulate(proto, 5.0)
+    step = table1.simulate(proto, 5.0, inversions="step")
+    T = 1.0 / 30.0
+    assert len(avg.averaged_windows) == 1
+    t0, t1 = avg.averaged_windows[0]
+    assert t0 == 0.0 and t1 == pytest.approx(3.0 - fast_inversions.N_TAIL * T)
+    assert step.averaged_windows == []
+    # the 180 inversions were the most of the steps
+    assert avg.n_steps < 0.4 * step.n_steps
+    full = simulate(preset("vshape-table1"), proto, load=5.0)
+    rng = full.trace.max() - full.trace.min()
+    # averaged against stepped: within 0.2 % of the stroke range; against the full model
+    # no worse than the stepped run by more than that
+    assert rms_difference(avg.trace, step.trace) <= 0.002 * rng
+    assert rms_difference(avg.trace, full.trace) <= rms_difference(step.trace, full.trace) + 0.002 * rng
+    assert avg.unzipping_speed == pytest.approx(step.unzipping_speed, rel=0.01)
+    # the tail is the real waveform: the voltage is +-V there and the period mean (0) before
+    tail = avg.t > t1 + 1e-9
+    assert np.all(np.abs(avg.V[(avg.t > t1 + 1e-6) & (avg.t < 3.0 - 1e-6)]) == pytest.approx(6000.0))
+    assert np.all(avg.V[(avg.t > 1e-6) & (avg.t < t1 - 1e-6)] == 0.0)
+    assert tail.any()
+
+
+@pytest.mark.parametrize("stage", [
+    Stage(Bipolar(6000.0, 30.0, 0.8), 3.0, "dead time"),          # a dead time: the stroke sags every period
+    Stage(Unipolar(6000.0, 30.0, 0.5), 3.0, "pulses"),
+    Stage(Bipolar(6000.0, 30.0, 1.0), 7.5 / 30.0, "short"),       # fewer than N_TAIL + MIN_AVERAGED periods
+    Stage(Bipolar(6000.0, 0.3, 1.0), 60.0, "slow"),               # the period is 4.5 % of the charge's tau
+    Stage(Bipolar(6000.0, 30.0, 1.0, slew_rate=6000.0 / 2e-3), 3.0, "ramps"),   # ramps 12 % of the period
+    Stage(DC(6000.0), 3.0, "dc"),
+])
+def test_stages_that_are_stepped_as_they_are(table1, stage):
+    assert fast_inversions.plan(table1, Protocol([stage]), Load(4.0)) is None
+
+
+@pytest.mark.parametrize("kw", [{"chi_p": 0.03, "tau_p": 1.0}, {"R_s": 2e6}])
+def test_fast_electrical_states_keep_the_inversions_stepped(kw):
+    # a branch of 1 s is 33 ms x 30: its P follows each half period; behind 2 Mohm the
+    # device voltage takes ~1 ms to follow a switch (the fastest rates, not the charge's)
+    s = reduced.charge(preset("vshape-table1").replace(**kw))
+    rate = fast_inversions.fastest_rate(s, 36e6)
+    assert rate / 30.0 > fast_inversions.RATE_SHARE
+    assert s.simulate(Protocol.reset_then_hold(6000.0, 1.0), 4.0).averaged_windows == []
+
+
+def test_period_means_of_a_ramped_unbalanced_inversion():
+    V, f, share, t_ramp = 5000.0, 20.0, 0.6, 1e-3
+    w = Bipolar(V, f, 1.0, slew_rate=2 * V / t_ramp, positive_share=share)
+    vm, W = fast_inversions.period_means(w)
+    assert vm == pytest.approx((2 * share - 1) * V, rel=1e-9)
+    assert W == pytest.approx(V * V * (1 - 4.0 / 3.0 * t_ramp * f), rel=1e-9)     # averaged.averaged_inputs
+
+
+def test_averaged_mode_with_every_segment_stepped_is_the_plain_run(table1):
+    # the kernel's averaged mode takes a segment as it is where its mean square is < 0:
+    # the records are those of the plain run, bit for bit
+    proto = Protocol([Stage(Bipolar(6000.0, 30.0, 1.0), 0.5, "reset"), Stage(DC(6000.0), 2.0, "hold")])
+    load = Load(4.0)
+    tb, v0, vs, f0, fs = segments(proto, load)
+    y = np.zeros(table1.ny)
+    plain, _, _ = table1._run(tb, v0, vs, f0, fs, v0 * v0, y, 1e-4, 10 ** 6, False, 0.0, 6000.0)
+    mixed, _, _ = table1._run(tb, v0, vs, f0, fs, np.full(len(v0), -1.0), y, 1e-4, 10 ** 6, True, 0.0, 6000.0)
+    assert np.array_equal(plain, mixed)
+
+
+def test_phase_offsets_keep_a_phase_zero_start_on_the_stepped_charge(table1):
+    # a long inversion from phase 0 (as Bipolar starts): the charge oscillates about
+    # b <g> (V T / 4 of DC charging) until leakage takes it, tau ~ 75 s; the kernel moves
+    # the averaged window's charge by b g0 at its start and back at its end
+    proto = Protocol.single(Bipolar(6000.0, 2.0, 1.0), 60.0)
+    assert 0.5 * fast_inversions.fastest_rate(table1, 36e6) <= fast_inversions.RATE_SHARE     # T / tau
+    step = table1.simulate(proto, 4.0, inversions="step")
+    avg = table1.simulate(proto, 4.0)
+    assert len(avg.averaged_windows) == 1
+    plan = fast_inversions.plan(table1, proto, Load(4.0))
+    tb, v0, vs, f0, fs, w2, gof, _ = plan
+    g0 = gof[np.flatnonzero(gof[:, 0])[0], 0]
+    assert g0 == pytest.approx(6000.0 * 0.5 / 4.0)          # V T / 4 at phase 0
+    rec, _, _ = table1._run(tb, v0, vs, f0, fs, w2, np.zeros(table1.ny), 1e-4, 10 ** 6, True, 0.0, 6000.0,
+                            np.zeros_like(gof))
+    # the layer's charge at the end: with the offsets on the stepped run's, without them not
+    err_with = abs(avg.q_f[-1] - step.q_f[-1])
+    err_without = abs(rec[-1, sk.R_QF] - step.q_f[-1])
+    assert err_with < 0.3 * err_without
+    assert rms_difference(avg.trace, step.trace) <= 0.002 * (step.trace.max() - step.trace.min())
+
+
+def test_inversions_argument_is_checked(table1):
+    with pytest.raises(ValueError, match="inversions"):
+        table1.simulate(Protocol.dc(6000.0, 1.0), 4.0, inversions="fast")
+    assert math.isfinite(table1.simulate(Protocol.dc(6000.0, 1.0), 4.0, inversions="step").final_stroke)
