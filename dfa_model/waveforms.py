@@ -255,6 +255,15 @@ def charge_phase_offset(wave) -> float:
     return _charge_profile(wave)[5]
 
 
+def period_means(wave) -> tuple[float, float, float]:
+    """(<V>, <V^2>, g0) over one period of a periodic waveform from its start (its phase),
+    exact for its piecewise-linear voltage; g0 = charge_phase_offset(wave)."""
+    t, v0, sl, _, vm, gm = _charge_profile(wave)
+    dt = np.diff(t)
+    w = float(np.sum(v0 * v0 * dt + v0 * sl * dt * dt + sl * sl * dt ** 3 / 3.0) / (t[-1] - t[0]))
+    return vm, w, gm
+
+
 def _charge_profile(wave):
     """Over one period from the drive's start: breakpoints t, the segments' start values
     and slopes, g = int (V - <V>) at the breakpoints, <V>, and <g> (exact integrals of

@@ -20,7 +20,7 @@ A stage is averaged when all of these hold (else it is stepped as it is):
   - it holds more than N_TAIL + MIN_AVERAGED whole periods.
 
 At the window's start the period-mean charge is the real one plus b g0 (g0 the drive's
-phase offset, waveforms.charge_phase_offset; b the charges' input gains), at its end
+phase offset, waveforms.period_means; b the charges' input gains), at its end
 (whole periods later, the same phase) the real charge is the mean minus b g0: the kernel
 applies both (surrogate_kernel.integrate's gof). In the window the records hold period
 means: the stroke's, the voltage <V> and the current without its switching spikes
@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 from dfa_model.numerics import surrogate_kernel as sk
-from dfa_model.waveforms import Bipolar, DC, Protocol, Stage, charge_phase_offset, merge
+from dfa_model.waveforms import DC, Bipolar, Protocol, Stage, merge, period_means
 
 N_TAIL = 4            # periods stepped as they are at the end of an averaged stage (averaged.N_TAIL)
 MIN_AVERAGED = 4      # fewer averaged periods than this are not worth the window's two offsets
@@ -41,22 +41,16 @@ RATE_SHARE = 0.01     # period / fastest electrical time constant at most
 RAMP_SHARE = 0.01     # the ramps' share of the period at most
 
 
-def period_means(wave) -> tuple[float, float]:
-    """(<V>, <V^2>) over one period of a periodic waveform (exact for its piecewise-linear
-    voltage)."""
-    pw = wave.piecewise(wave.period)
-    dt = np.diff(pw.t)
-    v0, sl = pw.v0, pw.slope
-    T = float(pw.t[-1] - pw.t[0])
-    vm = float(np.sum(v0 * dt + 0.5 * sl * dt * dt) / T)
-    w = float(np.sum(v0 * v0 * dt + v0 * sl * dt * dt + sl * sl * dt ** 3 / 3.0) / T)
-    return vm, w
-
-
 def fastest_rate(s, W: float) -> float:
     """The largest |d(rate)/d(state)| over the electrical states (charges, polarizations,
     V_d) of surrogate s held zipped (x = x_e, uncharged) in averaged mode at the mean
-    square voltage W (1/s): one over the fastest electrical time constant."""
+    square voltage W (1/s): one over the fastest electrical time constant. Held zipped
+    the material points are alike: the first stands for them all. Kept on the surrogate
+    per W (rebuilt when its parameters were replaced)."""
+    memo = s.__dict__.setdefault("_rates", {})
+    hit = memo.get(W)
+    if hit is not None and hit[0] is s.params:
+        return hit[1]
     par = s.par(averaged=True, lag=False)
     y = np.zeros(s.ny)
     y[sk.X] = s.x_e
@@ -66,21 +60,26 @@ def fastest_rate(s, W: float) -> float:
     base, up = np.zeros(s.ny), np.zeros(s.ny)
     sk.evaluate(y, W, 0.0, s.tables, par, s._law, s._lawp, base, sk.HELD)
     sc = s.scales(max(math.sqrt(W), 100.0))
+    pos = dict(s._names)
     fastest = 0.0
-    for name, i in s._names:
-        if name in ("x", "v"):
+    for name in ("V_d", "q_f", "P_f", "q_b", "P_b", "q_a", "P_a", "q_1", "P_1"):
+        i = pos.get(name)
+        if i is None:
             continue
         h = 1e-6 * sc[i]
         yp = y.copy()
         yp[i] += h
         sk.evaluate(yp, W, 0.0, s.tables, par, s._law, s._lawp, up, sk.HELD)
         fastest = max(fastest, abs(up[i] - base[i]) / h)
+    if len(memo) > 16:
+        memo.clear()
+    memo[W] = (s.params, fastest)
     return fastest
 
 
-def _averaged_span(s, stage, rates):
+def _averaged_span(s, stage):
     """(n_averaged_periods, <V>, <V^2>, g0) when `stage` is averaged (module docstring),
-    else None. rates: a cache of fastest_rate by W."""
+    else None."""
     w = stage.waveform
     if type(w) is not Bipolar or w.duty != 1.0:
         return None
@@ -90,23 +89,20 @@ def _averaged_span(s, stage, rates):
         return None
     if w.slew_rate is not None and 2.0 * w.ramp_time(2.0 * abs(w.V)) > RAMP_SHARE * T:
         return None
-    vm, W = period_means(w)
-    if W not in rates:
-        rates[W] = fastest_rate(s, W)
-    if T * rates[W] > RATE_SHARE:
+    vm, W, g0 = period_means(w)
+    if T * fastest_rate(s, W) > RATE_SHARE:
         return None
-    return n - N_TAIL, vm, W, float(charge_phase_offset(w))
+    return n - N_TAIL, vm, W, g0
 
 
 def plan(s, protocol: Protocol, load):
     """The kernel's inputs for `protocol` with its fast inversions averaged:
     (tb, v0, vs, f0, fs, w2, gof, windows), windows the averaged (t0, t1); None when no
     stage qualifies (the run is stepped as it is)."""
-    rates = {}
     stages, windows, marks = [], [], []
     t = 0.0
     for st in protocol.stages:
-        span = _averaged_span(s, st, rates)
+        span = _averaged_span(s, st)
         if span is None:
             stages.append(st)
         else:
