@@ -100,14 +100,15 @@ def _timed(run, repeats: int):
     return out, statistics.median(ts)
 
 
-def compare(surrogate, protocol, load=None, full_result=None, rtol=None, repeats=1) -> dict:
+def compare(surrogate, protocol, load=None, full_result=None, rtol=None, repeats=1, inversions="average") -> dict:
     """Run the full model (the surrogate's actuator) and the surrogate on `protocol`
     with `load` (a Load or a constant force in N; default the protocol's own, else 0);
     returns the KEYS plus the two results under 'full' and 'reduced'. Wall times are
     each model's own, measured the same way: the median of `repeats` runs of each while
     they take under REPEAT_BUDGET (`dfa compare` times 5: one run of a sub-millisecond
     surrogate right after the full model measured the caches the full model left, 0.3-0.5
-    ms of its 0.8)."""
+    ms of its 0.8). `inversions`: Surrogate.simulate's (fast full-duty inversions averaged
+    or stepped)."""
     F = protocol_load(protocol, load)
     p = surrogate.params
     with warnings.catch_warnings():
@@ -116,7 +117,7 @@ def compare(surrogate, protocol, load=None, full_result=None, rtol=None, repeats
             full, wall_full = full_result, full_result.wall_time
         else:
             full, wall_full = _timed(lambda: simulate(p, protocol, load=F), repeats)
-    kw = {} if rtol is None else {"rtol": rtol}
+    kw = {"inversions": inversions} if rtol is None else {"rtol": rtol, "inversions": inversions}
     red, wall_red = _timed(lambda: surrogate.simulate(protocol, F, **kw), repeats)
     err = rms_difference(red.trace, full.trace)
     rng = float(full.trace.max() - full.trace.min())
@@ -158,6 +159,10 @@ def plot(row, path, title=None):
     a1.plot(t, full.trace(t) * 1e3, "k-", lw=1.2, label="full model")
     a1.plot(t, red.trace(t) * 1e3, "C1--", lw=1.2, label=f"surrogate ({red.surrogate.family}, "
                                                       f"{red.surrogate.n_states} states)")
+    for i, (t0, t1) in enumerate(getattr(red, "averaged_windows", [])):
+        for ax in (a1, a2):
+            ax.axvspan(t0, t1, color="0.92", lw=0, zorder=0,
+                       label="surrogate cycle-averaged" if (ax is a1 and i == 0) else None)
     a1.set_ylabel("stroke (mm)")
     a1.legend(loc="best", fontsize=8)
     a1.set_title(title or f"relative RMS error {row['relative_rms_error'] * 100:.2f} %, "

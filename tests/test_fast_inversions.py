@@ -112,3 +112,21 @@ def test_inversions_argument_is_checked(table1):
     with pytest.raises(ValueError, match="inversions"):
         table1.simulate(Protocol.dc(6000.0, 1.0), 4.0, inversions="fast")
     assert math.isfinite(table1.simulate(Protocol.dc(6000.0, 1.0), 4.0, inversions="step").final_stroke)
+
+
+def test_dfa_compare_reports_the_averaged_windows(table1, tmp_path, capsys):
+    import json
+    from dfa_model.cli import main
+    path = tmp_path / "m.json"
+    table1.save(path)
+    args = ["compare", str(path), "--voltage", "6000", "--force", "5", "--reset", "3", "--duration", "5", "--json"]
+    assert main(args) == 0
+    avg = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert avg["averaged_windows"] == [[0.0, pytest.approx(3.0 - fast_inversions.N_TAIL / 30.0)]]
+    assert main(args + ["--inversions", "step"]) == 0
+    step = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert step["averaged_windows"] == []
+    # the same comparison either way: the averaged reset moves the error by < 0.2 % of range
+    assert abs(avg["relative_rms_error"] - step["relative_rms_error"]) < 0.002
+    assert main(args[:-1]) == 0
+    assert "cycle-averaged     0-2.86667 s" in capsys.readouterr().out

@@ -378,7 +378,8 @@ def test_cli_compare_json(fitted, tmp_path, capsys):
                "2", "--duty", "0.5", "--duration", "10", "--json", "--plot", str(tmp_path / "c.png")])
     assert rc == 0
     out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    assert list(out) == list(KEYS)
+    assert list(out) == [*KEYS, "averaged_windows"]
+    assert out["averaged_windows"] == []        # a duty of 0.5 is stepped (fast_inversions)
     assert out["relative_rms_error"] < 0.02 and out["speedup"] > 1 and out["ripple_full"] > 0
     assert (tmp_path / "c.png").stat().st_size > 1000
     rc = main(["compare", str(tmp_path / "missing.json"), "--voltage", "6000", "--duration", "1"])
