@@ -25,6 +25,7 @@ families.py). Inputs `voltage`, `force`; outputs `stroke`, `current`.
 from __future__ import annotations
 
 import json
+import math
 import threading
 import time
 import warnings
@@ -405,9 +406,17 @@ class Surrogate:
         sc = self.scales(V_ref)
         return {n: float(sc[i]) for n, i in self._names}
 
-    def system(self, name=None, scaled=True, V_ref: float = 6000.0):
+    def system(self, name=None, scaled=True, V_ref: float = 6000.0, dt=None):
         """This surrogate as a control.NonlinearIOSystem: inputs voltage (V), force (N);
         outputs stroke (m), current_no_ramp (A), capacitance (F); states `state_names`.
+
+        dt (s): a discrete-time system sampled every dt with the inputs held over each
+        sample (zero-order hold, as a digital controller or a DAQ drives the actuator):
+        each update runs the compiled stepper over one sample, so it is the fast path's
+        own answer at python-control's defaults (no solve_ivp) and keeps the front layer's
+        material lag (its play anchor is the extra state `s_m`, m of zipped length); loops
+        built on it with control.interconnect and discrete controllers of the same dt
+        lose a hold where the fast path does (sampled_system).
 
         scaled=True (default): each state is its SI value over state_scale(V_ref), so
         no state sits below solve_ivp's default atol. The system is stiff (the stroke's
@@ -428,6 +437,8 @@ class Surrogate:
         from x = 0); control.find_operating_point is unbounded and may return a stroke
         outside the actuator."""
         import control
+        if dt is not None:
+            return self.sampled_system(dt, name, scaled, V_ref)
         names = self.state_names
         scale = self.state_scale(V_ref)
         S = np.array([scale[n] for n in names]) if scaled else np.ones(len(names))
@@ -443,6 +454,63 @@ class Surrogate:
                              states=names, name=name or f"dfa_{self.family}")
         sys_.units = dict(self.OUTPUT_UNITS)
         sys_.state_units = self.state_units()
+        sys_.state_scale = dict(zip(names, S.tolist()))
+        return sys_
+
+    def sampled_system(self, dt: float, name=None, scaled=True, V_ref: float = 6000.0):
+        """system(dt=dt): the discrete-time system (see there). States `state_names`, then
+        `s_m` when the layer has a material lag (its anchor, a memory the stepper renews);
+        the update x[k+1] = the compiled run over [k dt, (k + 1) dt] from x[k] with the
+        inputs u[k] held."""
+        import control
+        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 1e-6 <= dt <= 10.0):
+            raise ValueError(f"dt: got {dt!r}, expected a sample period in [1e-6, 10] s")
+        dt = float(dt)
+        names, idx = self.state_names, self._index()
+        lag = self.has_wakes and self.c_m > 0
+        scale = self.state_scale(V_ref)
+        S = np.array([scale[n] for n in names]) if scaled else np.ones(len(names))
+        units = self.state_units()
+        if lag:
+            names, idx = names + ["s_m"], idx + [sk.SM]
+            S = np.append(S, self.x_e if scaled else 1.0)
+            units["s_m"] = "m"
+        idx = np.asarray(idx)
+        par, sc = self._kernel_inputs(False, 0.0, float(V_ref))
+        seg = {k: np.zeros(n) for k, n in (("tb", 2), ("v0", 1), ("vs", 1), ("f0", 1), ("fs", 1), ("w2", 1))}
+        gof = np.zeros((1, 2))
+        state = {"rec": np.empty((4096, sk.NREC))}
+
+        def upd(t, xs, u, params):
+            y = np.zeros(self.ny)
+            y[idx] = np.asarray(xs, float) * S
+            V, F = float(u[0]), float(u[1])
+            if not (math.isfinite(V) and math.isfinite(F)):
+                raise ValueError(f"inputs at t = {t:g} s: voltage {V!r} V, force {F!r} N, expected finite values")
+            y[-2], y[-1] = V, F
+            seg["tb"][0], seg["tb"][1] = t, t + dt
+            seg["v0"][0], seg["f0"][0], seg["w2"][0] = V, F, V * V
+            while True:
+                status, rows, _, y_end = sk.integrate(seg["tb"], seg["v0"], seg["vs"], seg["f0"], seg["fs"],
+                                                      seg["w2"], gof, y, self.tables, par, self._law, self._lawp,
+                                                      sc, RTOL, dt, state["rec"], limits.MAX_STEPS)
+                if status == sk.FULL and state["rec"].shape[0] < 1 << 20:
+                    state["rec"] = np.empty((4 * state["rec"].shape[0], sk.NREC))
+                    continue
+                break
+            if status != sk.OK:
+                raise SurrogateError(f"sampled surrogate stopped in the sample at t = {t:g} s: status {status}")
+            return y_end[idx] / S
+
+        def out(t, xs, u, params):
+            x = np.asarray(xs, float) * S
+            return np.array([min(max(x[0], 0.0), self.x_e), self._eval(x[:self.n_states], u[0], u[1])[1],
+                             self.capacitance(x[0])])
+
+        sys_ = control.nlsys(upd, out, inputs=["voltage", "force"], outputs=list(self.OUTPUTS), states=names,
+                             dt=dt, name=name or f"dfa_{self.family}_sampled")
+        sys_.units = dict(self.OUTPUT_UNITS)
+        sys_.state_units = units
         sys_.state_scale = dict(zip(names, S.tolist()))
         return sys_
 
