@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 from dfa_model.numerics import surrogate_kernel as sk
-from dfa_model.waveforms import DC, Bipolar, Protocol, Stage, merge, period_means
+from dfa_model.waveforms import Bipolar, Piecewise, Protocol, merge, period_means
 
 N_TAIL = 4            # periods stepped as they are at the end of an averaged stage (averaged.N_TAIL)
 MIN_AVERAGED = 4      # fewer averaged periods than this are not worth the window's two offsets
@@ -99,22 +99,25 @@ def plan(s, protocol: Protocol, load):
     """The kernel's inputs for `protocol` with its fast inversions averaged:
     (tb, v0, vs, f0, fs, w2, gof, windows), windows the averaged (t0, t1); None when no
     stage qualifies (the run is stepped as it is)."""
-    stages, windows, marks = [], [], []
+    parts, windows, marks = [], [], []
     t = 0.0
     for st in protocol.stages:
         span = _averaged_span(s, st)
         if span is None:
-            stages.append(st)
+            parts.append(st.waveform.piecewise(st.duration).shifted(t))
         else:
             n_avg, vm, W, g0 = span
             t_avg = n_avg * st.waveform.period
-            stages += [Stage(DC(vm), t_avg, st.label), Stage(st.waveform, st.duration - t_avg, st.label)]
+            # one segment at the period mean, then the tail from the drive's own phase
+            # (whole periods later: where the stage started)
+            parts += [Piecewise(np.array([t, t + t_avg]), np.array([vm]), np.zeros(1)),
+                      st.waveform.piecewise(st.duration - t_avg).shifted(t + t_avg)]
             windows.append((t, t + t_avg))
             marks.append((W, g0))
         t += st.duration
     if not windows:
         return None
-    tb, v0, vs, f0, fs = merge(Protocol(stages).piecewise(), load.piecewise(protocol.duration))
+    tb, v0, vs, f0, fs = merge(Piecewise.concat(parts), load.piecewise(protocol.duration))
     w2 = np.full(len(v0), -1.0)
     gof = np.zeros((len(v0), 2))
     tol = 1e-12 * max(protocol.duration, 1.0)
