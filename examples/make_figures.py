@@ -1,5 +1,6 @@
 """Regenerate every example figure in one command: the paper's Figs. 2, 3, 4 and 9, the
-Peano-HASEL convergence in N, the FMU co-simulation, and the `dfa simulate --plot` figure
+Peano-HASEL convergence in N, the FMU co-simulation, a stroke-holding loop in python-control on
+the sampled surrogate, and the `dfa simulate --plot` figure
 of the README's quick start.
 
     python examples/make_figures.py [--quick] [--out DIR] [--only NAME ...]
@@ -25,6 +26,7 @@ EXAMPLES = {
     "fig9": (["fig9_peano.py"], ["fig9_peano.png"]),
     "peano_convergence": (["peano_convergence.py"], ["peano_convergence.png"]),
     "fmu": (["fmu_cosimulation.py"], ["fmu_cosimulation.png"]),
+    "python_control_loop": (["python_control_loop.py"], ["python_control_loop.png"]),
     "cli": (["-m", "dfa_model.cli", "simulate", "--preset", "vshape-table1", "--voltage", "6000", "--force", "5",
              "--reset", "3", "--duration", "20", "--out", "{out}/baseline.csv", "--plot", "{out}/baseline.png"],
             ["baseline.png"]),
