@@ -10,14 +10,22 @@ N_TAIL, which are stepped as they are: the stroke's ripple and the stage's end a
 real waveform's.
 
 A stage is averaged when all of these hold (else it is stepped as it is):
-  - its waveform is a full-duty polarity inversion (Bipolar, duty 1): |V| stays at the
-    amplitude but for the ramps, so the stroke barely ripples (a dead time or a pulse
-    train lets it sag every period: the averaged force would be wrong);
+  - its waveform is a full-duty polarity inversion (Bipolar, duty 1) with equal shares of
+    +V and -V: |V| stays at the amplitude but for the ramps and no mean voltage charges
+    the interface, so the stroke barely ripples (a dead time or a pulse train lets it sag
+    every period; an unequal share charges the interface under its mean, and the force's
+    V q term then swings with the polarity - the stroke follows the larger force in one
+    half period, and near the pull-in threshold that zips an actuator the mean force
+    would leave open);
   - the ramps take at most RAMP_SHARE of the period;
   - the period is at most RATE_SHARE of the fastest electrical time constant of the
     zipped device at the stage's mean square voltage (the charges', the polarization
     branch's, the device voltage's behind R_s: the held Jacobian's diagonal);
-  - it holds more than N_TAIL + MIN_AVERAGED whole periods.
+  - it holds at least N_TAIL + MIN_AVERAGED whole periods;
+  - at the stage's start (known only during the run: run() splits it there) every
+    charge and polarization is below RIPPLE_SHARE of the charge whose V q force equals
+    the V^2 force (|c1 / c0| q <= RIPPLE_SHARE |V| at every stroke): a reset after a DC
+    hold starts charged, and its stroke swings with the polarity.
 
 At the window's start the period-mean charge is the real one plus b g0 (g0 the drive's
 phase offset, waveforms.period_means; b the charges' input gains), at its end
@@ -38,6 +46,7 @@ from dfa_model.waveforms import Bipolar, Piecewise, Protocol, merge, period_mean
 N_TAIL = 4            # periods stepped as they are at the end of an averaged stage (averaged.N_TAIL)
 MIN_AVERAGED = 4      # fewer averaged periods than this are not worth the window's two offsets
 RATE_SHARE = 0.01     # period / fastest electrical time constant at most
+RIPPLE_SHARE = 0.002  # the charges' V q force over the V^2 force at the window's start at most
 RAMP_SHARE = 0.01     # the ramps' share of the period at most
 
 
@@ -89,16 +98,37 @@ def _averaged_span(s, stage):
         return None
     if w.slew_rate is not None and 2.0 * w.ramp_time(2.0 * abs(w.V)) > RAMP_SHARE * T:
         return None
+    if w.positive_share != 0.5:
+        return None
     vm, W, g0 = period_means(w)
     if T * fastest_rate(s, W) > RATE_SHARE:
         return None
     return n - N_TAIL, vm, W, g0
 
 
+def charge_limit(s, V: float) -> float:
+    """The largest charge (C/m^2) a window may start with at amplitude V: RIPPLE_SHARE |V|
+    over the largest |c1 / c0| of the force map."""
+    memo = s.__dict__.setdefault("_rates", {})
+    hit = memo.get("c1/c0")
+    if hit is None or hit[0] is not s.tables:
+        c0, c1 = s.tables[:, sk.C0], s.tables[:, sk.C1]
+        ok = c0 > 0
+        hit = memo["c1/c0"] = (s.tables, float(np.max(np.abs(c1[ok]) / c0[ok])) if ok.any() else math.inf)
+    return RIPPLE_SHARE * abs(V) / hit[1] if hit[1] > 0 else math.inf
+
+
+def _charge(s, y) -> float:
+    """The largest |charge| or |polarization| of a kernel state (layer, wakes, points)."""
+    q = np.abs(y[sk.QF:sk.NODE0 + 2 * s.n_points])
+    q[sk.SM - sk.QF] = 0.0                      # the lag's anchor is a length, not a charge
+    return float(q.max()) if q.size else 0.0
+
+
 def plan(s, protocol: Protocol, load):
     """The kernel's inputs for `protocol` with its fast inversions averaged:
-    (tb, v0, vs, f0, fs, w2, gof, windows), windows the averaged (t0, t1); None when no
-    stage qualifies (the run is stepped as it is)."""
+    (tb, v0, vs, f0, fs, w2, gof, windows), windows the averaged (t0, t1, V); None when
+    no stage qualifies (the run is stepped as it is)."""
     parts, windows, marks = [], [], []
     t = 0.0
     for st in protocol.stages:
@@ -112,7 +142,7 @@ def plan(s, protocol: Protocol, load):
             # (whole periods later: where the stage started)
             parts += [Piecewise(np.array([t, t + t_avg]), np.array([vm]), np.zeros(1)),
                       st.waveform.piecewise(st.duration - t_avg).shifted(t + t_avg)]
-            windows.append((t, t + t_avg))
+            windows.append((t, t + t_avg, abs(st.waveform.V)))
             marks.append((W, g0))
         t += st.duration
     if not windows:
@@ -121,7 +151,7 @@ def plan(s, protocol: Protocol, load):
     w2 = np.full(len(v0), -1.0)
     gof = np.zeros((len(v0), 2))
     tol = 1e-12 * max(protocol.duration, 1.0)
-    for (ta, te), (W, g0) in zip(windows, marks):
+    for (ta, te, _), (W, g0) in zip(windows, marks):
         inside = (tb[:-1] >= ta - tol) & (tb[1:] <= te + tol)
         w2[inside] = W
         k0 = int(np.argmax(inside))
@@ -129,3 +159,48 @@ def plan(s, protocol: Protocol, load):
         if k0 + inside.sum() < len(v0):
             gof[k0 + int(inside.sum())] = (-g0, W)
     return tb, v0, vs, f0, fs, w2, gof, windows
+
+
+def _span(seg, a, b):
+    """The segments of seg = (tb, v0, vs, f0, fs, *per-segment) within [a, b] (a and b
+    breakpoints of tb)."""
+    tb = seg[0]
+    tol = 1e-12 * max(abs(tb[-1]), 1.0)
+    k0 = int(np.searchsorted(tb, a - tol))
+    k1 = int(np.searchsorted(tb, b - tol)) if b < tb[-1] - tol else len(tb) - 1
+    return (tb[k0:k1 + 1],) + tuple(v[k0:k1] for v in seg[1:])
+
+
+def run(s, plan_, stepped, y, run_kernel):
+    """Run a planned protocol: each averaged window is taken only if the state at its
+    start carries at most charge_limit (module docstring), else its stage is stepped
+    (`stepped()`: the protocol's own segments). run_kernel(segments, y, averaged) runs
+    one call and returns (rec, steps, y_end). Returns (rec, steps, y_end, windows taken)."""
+    tb, v0, vs, f0, fs, w2, gof, windows = plan_
+    planned = (tb, v0, vs, f0, fs, w2, gof)
+    t_end = float(tb[-1])
+    starts = [w[0] for w in windows]
+    if starts[0] == tb[0] and len(windows) == 1:
+        # the common case (a reset first): decided on y0, one call
+        if _charge(s, y) <= charge_limit(s, windows[0][2]):
+            rec, steps, y_end = run_kernel(planned, y, True)
+            return rec, steps, y_end, [windows[0][:2]]
+        base = stepped()
+        rec, steps, y_end = run_kernel(base + (base[1] * base[1], np.zeros((len(base[1]), 2))), y, False)
+        return rec, steps, y_end, []
+    cuts = ([] if starts[0] == tb[0] else [float(tb[0])]) + starts + [t_end]
+    recs, total, taken, base = [], 0, [], None
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        w = next((w for w in windows if w[0] == a), None)
+        if w is not None and _charge(s, y) > charge_limit(s, w[2]):
+            if base is None:
+                base = stepped()
+                base = base + (base[1] * base[1], np.zeros((len(base[1]), 2)))
+            rec, steps, y = run_kernel(_span(base, a, b), y, False)
+        else:
+            rec, steps, y = run_kernel(_span(planned, a, b), y, True)
+            if w is not None:
+                taken.append(w[:2])
+        recs.append(rec if not recs else rec[1:])      # each call records its start again
+        total += steps
+    return np.concatenate(recs), total, y, taken

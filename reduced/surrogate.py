@@ -283,13 +283,16 @@ class Surrogate:
         t0 = time.perf_counter()
         plan = self._plan(protocol, load) if averaged is None and inversions == "average" else None
         if plan is not None:
-            tb, v0, vs, f0, fs, w2, gof, windows = plan
+            def run_kernel(seg, y, avg):
+                return self._run(*seg[:6], y, rtol, max_steps, avg, load.k_load, protocol.amplitude, seg[6])
+            rec, steps, y_end, windows = fast_inversions.run(self, plan, lambda: self._segments(protocol, load),
+                                                             self._y0(y0), run_kernel)
         else:
             tb, v0, vs, f0, fs = self._segments(protocol, load)
             w2 = v0 * v0 if averaged is None else np.asarray(averaged, float)
-            gof, windows = None, []
-        rec, steps, y_end = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps,
-                                      averaged is not None or plan is not None, load.k_load, protocol.amplitude, gof)
+            windows = []
+            rec, steps, y_end = self._run(tb, v0, vs, f0, fs, w2, self._y0(y0), rtol, max_steps, averaged is not None,
+                                          load.k_load, protocol.amplitude)
         res = SurrogateResult(self, protocol, rec, time.perf_counter() - t0, steps, y_end, load)
         res.averaged_windows = windows
         return res
@@ -416,7 +419,12 @@ class Surrogate:
         own answer at python-control's defaults (no solve_ivp) and keeps the front layer's
         material lag (its play anchor is the extra state `s_m`, m of zipped length); loops
         built on it with control.interconnect and discrete controllers of the same dt
-        lose a hold where the fast path does (sampled_system).
+        lose a hold where the fast path does (sampled_system). Its states are scaled like
+        the continuous system's: `sys.scaled_state(s.equilibrium(V, F))` turns SI values
+        into them. For poles and margins linearize the continuous system (linearize()):
+        the play is not smooth, and a difference quotient of the sampled update depends on
+        where its anchor sits (at the lag's rest, Table 1 at 6 kV, 4 N: |eig| up to
+        1.00006 per 10 ms; at the lag's edge 0.999998).
 
         scaled=True (default): each state is its SI value over state_scale(V_ref), so
         no state sits below solve_ivp's default atol. The system is stiff (the stroke's
@@ -484,6 +492,12 @@ class Surrogate:
         def upd(t, xs, u, params):
             y = np.zeros(self.ny)
             y[idx] = np.asarray(xs, float) * S
+            if not np.all(np.isfinite(y)):
+                raise ValueError(f"state at t = {t:g} s: must be finite (X0 given in the system's scaled states: "
+                                 f"sys.scaled_state(...))")
+            if not (-1e-9 * self.x_e <= y[sk.X] <= self.x_e * (1 + 1e-9)):
+                raise ValueError(f"state at t = {t:g} s: stroke x = {y[sk.X]:g} m outside [0, x_e = {self.x_e:g}] m "
+                                 f"(X0 is in the system's scaled states: sys.scaled_state(...))")
             V, F = float(u[0]), float(u[1])
             if not (math.isfinite(V) and math.isfinite(F)):
                 raise ValueError(f"inputs at t = {t:g} s: voltage {V!r} V, force {F!r} N, expected finite values")
@@ -507,8 +521,34 @@ class Surrogate:
             return np.array([min(max(x[0], 0.0), self.x_e), self._eval(x[:self.n_states], u[0], u[1])[1],
                              self.capacitance(x[0])])
 
+        def scaled_state(values=None):
+            """The system's scaled state from SI values: a dict by state name, or a vector in
+            state_names' order (Surrogate.equilibrium's); s_m, unless given, at the lag's
+            rest (the layer on its own material: s_m = -l_z(x))."""
+            y = np.zeros(len(names))
+            if isinstance(values, dict):
+                pos = {n: i for i, n in enumerate(names)}
+                for k, v in values.items():
+                    if k not in pos:
+                        raise ValueError(f"scaled_state: unknown state {k!r}; the states are {', '.join(names)}")
+                    y[pos[k]] = float(v)
+                given = set(values)
+            elif values is not None:
+                v = np.asarray(values, float).ravel()
+                if v.size not in (self.n_states, len(names)):
+                    raise ValueError(f"scaled_state: expected {self.n_states} values (state_names) or {len(names)}, "
+                                     f"got {v.size}")
+                y[:v.size] = v
+                given = set(names[:v.size])
+            else:
+                given = set()
+            if lag and "s_m" not in given:
+                y[-1] = -float(np.interp(min(max(y[0], 0.0), self.x_e), self.x_grid, self.tables[:, sk.LZ]))
+            return y / S
+
         sys_ = control.nlsys(upd, out, inputs=["voltage", "force"], outputs=list(self.OUTPUTS), states=names,
                              dt=dt, name=name or f"dfa_{self.family}_sampled")
+        sys_.scaled_state = scaled_state
         sys_.units = dict(self.OUTPUT_UNITS)
         sys_.state_units = units
         sys_.state_scale = dict(zip(names, S.tolist()))

@@ -9,7 +9,7 @@ import pytest
 import reduced
 from dfa_model import Protocol, preset, simulate
 from dfa_model.numerics import surrogate_kernel as sk
-from dfa_model.waveforms import DC, Bipolar, Load, Stage, Unipolar, period_means, segments
+from dfa_model.waveforms import DC, Bipolar, Load, Sampled, Stage, Unipolar, period_means, segments
 from reduced import fast_inversions
 from reduced.compare import rms_difference
 
@@ -51,6 +51,7 @@ def test_standard_protocol_reset_is_averaged_but_its_last_periods(table1):
     Stage(Bipolar(6000.0, 0.3, 1.0), 60.0, "slow"),               # the period is 4.5 % of the charge's tau
     Stage(Bipolar(6000.0, 30.0, 1.0, slew_rate=6000.0 / 2e-3), 3.0, "ramps"),   # ramps 12 % of the period
     Stage(DC(6000.0), 3.0, "dc"),
+    Stage(Bipolar(6000.0, 30.0, 1.0, positive_share=0.6), 3.0, "unequal share"),   # its mean charges the interface
 ])
 def test_stages_that_are_stepped_as_they_are(table1, stage):
     assert fast_inversions.plan(table1, Protocol([stage]), Load(4.0)) is None
@@ -130,3 +131,37 @@ def test_dfa_compare_reports_the_averaged_windows(table1, tmp_path, capsys):
     assert abs(avg["relative_rms_error"] - step["relative_rms_error"]) < 0.002
     assert main(args[:-1]) == 0
     assert "cycle-averaged     0-2.86667 s" in capsys.readouterr().out
+
+
+def test_an_unequal_share_near_pull_in_is_stepped_and_zips_when_the_full_model_does():
+    # found by a fuzz run: 1.66 kV at share 0.61 against 0.84 N zips within 4 s in the full
+    # model and the stepped surrogate (the interface charges under the mean, and the
+    # polarity whose force it raises pulls in), while the averaged force stayed below
+    # the threshold until the load fell at 5 s: 252 um RMS apart
+    p = preset("vshape-table1")
+    s = reduced.charge(p)
+    proto = Protocol([Stage(Bipolar(1662.55, 23.829, 1.0, phase=0.0309, positive_share=0.6067), 8.3367, "b")])
+    load = Load(Sampled([0, 4.013, 5.042, 5.910], [0.844, 1.951, 0.032, 0.508], name="force"))
+    r = s.simulate(proto, load)
+    assert r.averaged_windows == []
+    full = simulate(p, proto, load=load)
+    assert full.trace(5.0) > 1e-3 and r.trace(5.0) > 1e-3           # zipped before the load falls
+
+
+def test_a_reset_that_starts_charged_is_stepped_and_one_that_starts_clean_is_averaged(table1):
+    # after 20 s of DC the interface carries ~1e-4 C/m^2: under the reset the V q force
+    # swings with the polarity and the stroke follows it; a reset after 50 ms of DC starts
+    # nearly clean. The run is split at each window's start, where its charge is known.
+    charged = Protocol([Stage(DC(6000.0), 20.0, "hold"), Stage(Bipolar(6000.0, 30.0, 1.0), 3.0, "reset"),
+                        Stage(DC(6000.0), 5.0, "hold")])
+    a, b = table1.simulate(charged, 4.0), table1.simulate(charged, 4.0, inversions="step")
+    assert a.averaged_windows == []
+    assert rms_difference(a.trace, b.trace) < 1e-9
+    clean = Protocol([Stage(Bipolar(6000.0, 30.0, 1.0), 3.0, "r1"), Stage(DC(6000.0), 0.05, "d"),
+                      Stage(Bipolar(6000.0, 30.0, 1.0), 3.0, "r2"), Stage(DC(6000.0), 5.0, "hold")])
+    a, b = table1.simulate(clean, 4.0), table1.simulate(clean, 4.0, inversions="step")
+    assert [w[0] for w in a.averaged_windows] == [0.0, pytest.approx(3.05)]
+    assert np.all(np.diff(a.t) >= 0) and a.t[-1] == pytest.approx(11.05) and a.n_steps < 0.2 * b.n_steps
+    assert rms_difference(a.trace, b.trace) <= 0.002 * (b.trace.max() - b.trace.min())
+    # the limit: RIPPLE_SHARE of the charge whose V q force is the V^2 force
+    assert 0 < fast_inversions.charge_limit(table1, 6000.0) < 1e-5

@@ -261,6 +261,14 @@ def test_sampled_system_is_the_fast_path_at_python_controls_defaults(s):
     for bad in (0.0, -1.0, float("nan"), 100.0):
         with pytest.raises(ValueError, match="dt"):
             s.system(dt=bad)
+    # X0 is scaled: scaled_state turns SI values (an equilibrium's) into it; a stroke
+    # outside the actuator or a non-finite state is refused by name, not run
+    x0 = sysd.scaled_state(s.equilibrium(6000.0, 4.0))
+    assert x0.size == len(sysd.state_labels) and x0[0] * sysd.state_scale["x"] == pytest.approx(
+        s.equilibrium(6000.0, 4.0)[0])
+    for X0, what in ((np.full(x0.size, np.nan), "finite"), (np.append([5.0], np.zeros(x0.size - 1)), "outside")):
+        with pytest.raises(ValueError, match=what):
+            control.input_output_response(sysd, T[:5], U[:, :5], X0=X0)
 
 
 def _sampled_pi(c, dt):
