@@ -110,8 +110,9 @@ MODE = "aot" if AOT is not None else "jit"
 # ------------------------------------------------------------------ argument checks
 def _array_check(char, ndim):
     def ok(a):
-        return (type(a) is np.ndarray and a.dtype.char == char and a.ndim == ndim and a.flags.c_contiguous
-                and a.flags.writeable and a.flags.aligned)
+        # flags.carray: C-contiguous, aligned and writeable in one flags object (a third of the
+        # check's time went into building three)
+        return type(a) is np.ndarray and a.dtype.char == char and a.ndim == ndim and a.flags.carray
     return ok
 
 
