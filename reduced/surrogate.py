@@ -51,6 +51,8 @@ VERSION = 8     # 8: no fixed-material gap column (7: the advection kept within 
 GIU_V7 = 15     # the column version 7 had after the fixed ones' first 15 (the fixed material's gap slope)
 V_S_REL = 1e-8        # the front's side blends over v_s = V_S_REL l_e per second: continuous, all but sharp
 RTOL = 1e-4           # the fast path's tolerance: the stroke's local error bound is rtol (x + x_e)
+RTOL_BRANCH = 1e-5    # ... with the polarization branch: at 1e-4 its DC creep ended 11-18 um from a converged
+                      # run (Table 1, 6 kV, 20 s), at 1e-5 within 0.7 um in 1.3-2x the time (Surrogate.rtol)
 
 
 _SCRATCH = threading.local()
@@ -260,7 +262,13 @@ class Surrogate:
         return sc
 
     # ------------------------------------------------------------------ fast path
-    def simulate(self, protocol, load=None, duration=None, *, rtol=RTOL, y0=None, max_steps=limits.MAX_STEPS,
+    @property
+    def rtol(self) -> float:
+        """The fast path's default tolerance: RTOL, or RTOL_BRANCH with the polarization
+        branch (docs/guide/surrogates.md, breakdown 5)."""
+        return RTOL_BRANCH if self.polarized else RTOL
+
+    def simulate(self, protocol, load=None, duration=None, *, rtol=None, y0=None, max_steps=limits.MAX_STEPS,
                  averaged=None, inversions="average") -> SurrogateResult:
         """Run a protocol on the compiled path (dfa_model.numerics.surrogate_kernel). `protocol` and
         `load` as in dfa_model.simulate. `y0`: initial state by name ({'x': ..., 'q_f': ...},
@@ -276,6 +284,7 @@ class Surrogate:
             protocol = Protocol.dc(protocol, duration) if isinstance(protocol, (int, float)) else \
                 Protocol.single(protocol, duration)
         load = protocol_load(protocol, load)
+        rtol = self.rtol if rtol is None else rtol
         if not (isinstance(rtol, (int, float)) and 1e-10 <= rtol <= 0.1):
             raise ValueError(f"rtol: got {rtol!r}, expected a number in [1e-10, 0.1]")
         if inversions not in ("average", "step"):
@@ -507,7 +516,7 @@ class Surrogate:
             while True:
                 status, rows, _, y_end = sk.integrate(seg["tb"], seg["v0"], seg["vs"], seg["f0"], seg["fs"],
                                                       seg["w2"], gof, y, self.tables, par, self._law, self._lawp,
-                                                      sc, RTOL, dt, state["rec"], limits.MAX_STEPS)
+                                                      sc, self.rtol, dt, state["rec"], limits.MAX_STEPS)
                 if status == sk.FULL and state["rec"].shape[0] < 1 << 20:
                     state["rec"] = np.empty((4 * state["rec"].shape[0], sk.NREC))
                     continue
