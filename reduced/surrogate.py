@@ -51,8 +51,7 @@ VERSION = 8     # 8: no fixed-material gap column (7: the advection kept within 
 GIU_V7 = 15     # the column version 7 had after the fixed ones' first 15 (the fixed material's gap slope)
 V_S_REL = 1e-8        # the front's side blends over v_s = V_S_REL l_e per second: continuous, all but sharp
 RTOL = 1e-4           # the fast path's tolerance: the stroke's local error bound is rtol (x + x_e)
-RTOL_BRANCH = 1e-5    # ... with the polarization branch: at 1e-4 its DC creep ended 11-18 um from a converged
-                      # run (Table 1, 6 kV, 20 s), at 1e-5 within 0.7 um in 1.3-2x the time (Surrogate.rtol)
+P_SCALE = 0.3         # the polarizations' error scale over chi_p times the charges' (Surrogate.scales)
 
 
 _SCRATCH = threading.local()
@@ -251,22 +250,27 @@ class Surrogate:
         sc = np.ones(self.ny)
         qs = self.q_scale() * 10.0 * max(abs(V_amp), 100.0) / 1000.0
         sc[sk.X], sc[sk.VEL], sc[sk.VD] = self.x_e, self.x_e * 100.0, max(abs(V_amp), 100.0)
-        # the charges' and polarizations' errors on one scale: the stroke's error bound
-        # (rtol (x + x_e)) is what limits the steps; a tighter bound on P (~chi_p smaller)
-        # took 5x the steps for no stroke accuracy (the force's error from either stays
-        # below the stroke's)
         sc[sk.QF:sk.NODE0] = qs
         # the material lag's anchor is a memory renewed between steps (its rate is 0)
         sc[sk.SM] = 1.0
-        sc[sk.NODE0:sk.NODE0 + 2 * self.n_points] = qs
+        n = self.n_points
+        sc[sk.NODE0:sk.NODE0 + 2 * n] = qs
+        # the polarizations on their own scale, P_SCALE chi_p of the charges': on the
+        # charges' own, the branch's DC creep ended 11-18 um from a converged run (Table 1,
+        # 6 kV, 20 s; its error accumulates in the P the force reads over the unzipped
+        # length); on this one within 0.1-0.9 um, in 1.3-3x fewer steps than a tenth of
+        # the tolerance on everything (docs/guide/surrogates.md, breakdown 5)
+        if self.params.chi_p > 0:
+            sP = qs * P_SCALE * self.params.chi_p
+            sc[sk.PF], sc[sk.PB], sc[sk.PA] = sP, sP, sP
+            sc[sk.NODE0 + n:sk.NODE0 + 2 * n] = sP
         return sc
 
     # ------------------------------------------------------------------ fast path
     @property
     def rtol(self) -> float:
-        """The fast path's default tolerance: RTOL, or RTOL_BRANCH with the polarization
-        branch (docs/guide/surrogates.md, breakdown 5)."""
-        return RTOL_BRANCH if self.polarized else RTOL
+        """The fast path's default tolerance (RTOL; the states' scales are scales())."""
+        return RTOL
 
     def simulate(self, protocol, load=None, duration=None, *, rtol=None, y0=None, max_steps=limits.MAX_STEPS,
                  averaged=None, inversions="average") -> SurrogateResult:
