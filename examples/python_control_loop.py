@@ -2,7 +2,8 @@
 compiled loop and the full model.
 
 V-shaped actuator of Table 1, 4 N load, x_ref = 0.5 mm. The PI amplitude law of
-reduced.holding (tuned on the surrogate) as a discrete python-control system, closed with
+reduced.holding (tuned on the surrogate) as a discrete python-control system
+(HoldController.system), closed with
 control.interconnect around `s.system(dt=...)` (the surrogate sampled every control step
 with the inputs held: python-control's defaults are exact there, no ODE solver):
 
@@ -34,35 +35,8 @@ warnings.simplefilter("ignore", PhysicsWarning)
 X_REF, F = 0.5e-3, 4.0
 
 
-def pi_system(c, half_period=None):
-    """holding's PI law (feedforward, clamp to [0, v_max], conditional integration) as a
-    discrete system of the controller's step; with half_period (s) the amplitude drives a
-    polarity inversion (+ first), else DC."""
-    dt = c.dt
-
-    def law(z, x):
-        e = c.x_ref - x
-        i_new = z + c.ki * dt * e
-        a = c.v_ff + c.kp * e + i_new
-        if a > c.v_max:
-            return c.v_max, (i_new if e < 0 else z)
-        if a < 0.0:
-            return 0.0, (i_new if e > 0 else z)
-        return a, i_new
-
-    def sign(t):
-        if half_period is None:
-            return 1.0
-        return -1.0 if int(round(t / dt)) // int(round(half_period / dt)) % 2 else 1.0
-
-    return control.nlsys(lambda t, z, u, p: [law(z[0], u[0])[1]],
-                         lambda t, z, u, p: [sign(t) * law(z[0], u[0])[0]],
-                         inputs=["stroke"], outputs=["voltage"], states=["integral"], dt=dt, name="pi")
-
-
 def python_control_loop(s, c, duration):
-    half = None if c.mode == "dc" else 0.5 / c.frequency
-    loop = control.interconnect([s.system(dt=c.dt, name="plant"), pi_system(c, half)], inputs=["force"],
+    loop = control.interconnect([s.system(dt=c.dt, name="plant"), c.system()], inputs=["force"],
                                 outputs=["stroke", "voltage"], check_unused=False)
     T = np.arange(0.0, duration + c.dt / 2, c.dt)
     t0 = time.perf_counter()

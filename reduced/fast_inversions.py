@@ -178,22 +178,13 @@ def run(s, plan_, stepped, y, run_kernel):
     one call and returns (rec, steps, y_end). Returns (rec, steps, y_end, windows taken)."""
     tb, v0, vs, f0, fs, w2, gof, windows = plan_
     planned = (tb, v0, vs, f0, fs, w2, gof)
-    t_end = float(tb[-1])
     starts = [w[0] for w in windows]
-    if starts[0] == tb[0] and len(windows) == 1:
-        # the common case (a reset first): decided on y0, one call
-        if _charge(s, y) <= charge_limit(s, windows[0][2]):
-            rec, steps, y_end = run_kernel(planned, y, True)
-            return rec, steps, y_end, [windows[0][:2]]
-        base = stepped()
-        rec, steps, y_end = run_kernel(base + (base[1] * base[1], np.zeros((len(base[1]), 2))), y, False)
-        return rec, steps, y_end, []
-    cuts = ([] if starts[0] == tb[0] else [float(tb[0])]) + starts + [t_end]
+    cuts = ([] if starts[0] == tb[0] else [float(tb[0])]) + starts + [float(tb[-1])]
     recs, total, taken, base = [], 0, [], None
     for a, b in zip(cuts[:-1], cuts[1:]):
         w = next((w for w in windows if w[0] == a), None)
         if w is not None and _charge(s, y) > charge_limit(s, w[2]):
-            if base is None:
+            if base is None:            # the protocol's own segments, stepped as they are
                 base = stepped()
                 base = base + (base[1] * base[1], np.zeros((len(base[1]), 2)))
             rec, steps, y = run_kernel(_span(base, a, b), y, False)
@@ -203,4 +194,4 @@ def run(s, plan_, stepped, y, run_kernel):
                 taken.append(w[:2])
         recs.append(rec if not recs else rec[1:])      # each call records its start again
         total += steps
-    return np.concatenate(recs), total, y, taken
+    return (recs[0] if len(recs) == 1 else np.concatenate(recs)), total, y, taken

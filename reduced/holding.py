@@ -96,6 +96,26 @@ class HoldController:
     def law(self, x_ref=None) -> _PI:
         return _PI(self, self.x_ref if x_ref is None else x_ref)
 
+    def system(self, x_ref=None, name="pi"):
+        """This loop's controller as a discrete python-control system of step dt: input
+        `stroke` (m), output `voltage` (V), state `integral` (V): the law of law() with the
+        polarity simulate_hold applies (+A first, flipped every half period in 'bipolar').
+        Closed with control.interconnect around Surrogate.system(dt=dt) it is the
+        compiled loop (simulate_hold_surrogate)."""
+        import control
+        x_ref = self.x_ref if x_ref is None else float(x_ref)
+        half = _polarity(self.mode, self.frequency, self.dt)
+
+        def upd(t, z, u, params):
+            return [_pi_step(self, x_ref, z[0], u[0])[1]]
+
+        def out(t, z, u, params):
+            A = _pi_step(self, x_ref, z[0], u[0])[0]
+            return [A if half == 0 or (int(round(t / self.dt)) // half) % 2 == 0 else -A]
+
+        return control.nlsys(upd, out, inputs=["stroke"], outputs=["voltage"], states=["integral"], dt=self.dt,
+                             name=name)
+
     def loop(self):
         """The sampled open loop L(z) = C(z) G_zoh(z) (control.TransferFunction)."""
         import control
@@ -228,27 +248,28 @@ def _margins(L, w_low=math.inf):
 
 
 # ---------------------------------------------------------------------- amplitude laws
+def _pi_step(c: HoldController, x_ref: float, i: float, x: float) -> tuple[float, float]:
+    """One sample of the PI law with feedforward, clamp [0, v_max] and conditional
+    integration (the integral frozen while clamped against the error): (amplitude,
+    integral after). The compiled loop (surrogate_kernel.pi_loop) runs the same law."""
+    e = x_ref - x
+    i_new = i + c.ki * c.dt * e
+    u = c.v_ff + c.kp * e + i_new
+    if u > c.v_max:
+        return c.v_max, (i_new if e < 0 else i)
+    if u < 0.0:
+        return 0.0, (i_new if e > 0 else i)
+    return u, i_new
+
+
 class _PI:
-    """Sampled PI with feedforward, clamp [0, v_max] and conditional integration."""
+    """Sampled PI with feedforward, clamp [0, v_max] and conditional integration (_pi_step)."""
 
     def __init__(self, c: HoldController, x_ref: float):
         self.c, self.x_ref, self.i = c, float(x_ref), 0.0
 
     def __call__(self, x: float) -> float:
-        c = self.c
-        e = self.x_ref - x
-        i_new = self.i + c.ki * c.dt * e
-        u = c.v_ff + c.kp * e + i_new
-        if u > c.v_max:
-            u = c.v_max
-            if e < 0:
-                self.i = i_new
-        elif u < 0.0:
-            u = 0.0
-            if e > 0:
-                self.i = i_new
-        else:
-            self.i = i_new
+        u, self.i = _pi_step(self.c, self.x_ref, self.i, x)
         return u
 
 
@@ -407,7 +428,7 @@ def simulate_hold_surrogate(s, controller: HoldController | float, x_ref: float 
     an open-loop amplitude (V) with `mode` and `frequency`. F: a constant load (N); a
     load that varies in time needs simulate_hold's Python loop on the full model."""
     from dfa_model.numerics import surrogate_kernel as sk
-    from .surrogate import SurrogateError
+    from .surrogate import RTOL, SurrogateError
     if isinstance(controller, HoldController):
         c = controller
         x_ref = c.x_ref if x_ref is None else float(x_ref)
@@ -431,7 +452,7 @@ def simulate_hold_surrogate(s, controller: HoldController | float, x_ref: float 
     out = np.empty((n + 1, 5))
     wall = time.perf_counter()
     status, k, steps, y = sk.pi_loop(np.zeros(s.ny), s.tables, s.par(), s._law, s._lawp, s.scales(max(v_ff, v_max)),
-                                     float(rtol or s.rtol), ctl, int(n), int(half), int(1_000_000), out)
+                                     float(rtol or RTOL), ctl, int(n), int(half), int(1_000_000), out)
     wall = time.perf_counter() - wall
     if status != sk.OK:
         raise SurrogateError(f"surrogate hold stopped at t = {k * dt:g} s (integrator status {status})")

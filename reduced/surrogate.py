@@ -267,12 +267,7 @@ class Surrogate:
         return sc
 
     # ------------------------------------------------------------------ fast path
-    @property
-    def rtol(self) -> float:
-        """The fast path's default tolerance (RTOL; the states' scales are scales())."""
-        return RTOL
-
-    def simulate(self, protocol, load=None, duration=None, *, rtol=None, y0=None, max_steps=limits.MAX_STEPS,
+    def simulate(self, protocol, load=None, duration=None, *, rtol=RTOL, y0=None, max_steps=limits.MAX_STEPS,
                  averaged=None, inversions="average") -> SurrogateResult:
         """Run a protocol on the compiled path (dfa_model.numerics.surrogate_kernel). `protocol` and
         `load` as in dfa_model.simulate. `y0`: initial state by name ({'x': ..., 'q_f': ...},
@@ -288,7 +283,6 @@ class Surrogate:
             protocol = Protocol.dc(protocol, duration) if isinstance(protocol, (int, float)) else \
                 Protocol.single(protocol, duration)
         load = protocol_load(protocol, load)
-        rtol = self.rtol if rtol is None else rtol
         if not (isinstance(rtol, (int, float)) and 1e-10 <= rtol <= 0.1):
             raise ValueError(f"rtol: got {rtol!r}, expected a number in [1e-10, 0.1]")
         if inversions not in ("average", "step"):
@@ -520,7 +514,7 @@ class Surrogate:
             while True:
                 status, rows, _, y_end = sk.integrate(seg["tb"], seg["v0"], seg["vs"], seg["f0"], seg["fs"],
                                                       seg["w2"], gof, y, self.tables, par, self._law, self._lawp,
-                                                      sc, self.rtol, dt, state["rec"], limits.MAX_STEPS)
+                                                      sc, RTOL, dt, state["rec"], limits.MAX_STEPS)
                 if status == sk.FULL and state["rec"].shape[0] < 1 << 20:
                     state["rec"] = np.empty((4 * state["rec"].shape[0], sk.NREC))
                     continue

@@ -271,27 +271,24 @@ def test_sampled_system_is_the_fast_path_at_python_controls_defaults(s):
             control.input_output_response(sysd, T[:5], U[:, :5], X0=X0)
 
 
-def _sampled_pi(c, dt):
-    """holding's PI law (feedforward, clamp, conditional integration) as a discrete
-    python-control system of sample period dt."""
-    def law(z, x):
-        e = c.x_ref - x
-        i_new = z + c.ki * dt * e
-        a = c.v_ff + c.kp * e + i_new
-        if a > c.v_max:
-            return c.v_max, (i_new if e < 0 else z)
-        if a < 0.0:
-            return 0.0, (i_new if e > 0 else z)
-        return a, i_new
-    return control.nlsys(lambda t, z, u, p: [law(z[0], u[0])[1]], lambda t, z, u, p: [law(z[0], u[0])[0]],
-                         inputs=["stroke"], outputs=["voltage"], states=["integral"], dt=dt, name="pi")
+def test_the_controller_as_a_python_control_system_is_the_compiled_loops(s):
+    # HoldController.system: the same PI law and polarity as the compiled loop, so closed
+    # around the sampled surrogate it is that loop (10 Hz inversion, 3 s)
+    c = holding.tune_hold_controller(s, 0.5e-3, 4.0, frequency=10.0)
+    loop = control.interconnect([s.system(dt=c.dt, name="plant"), c.system()], inputs=["force"],
+                                outputs=["stroke", "voltage"], check_unused=False)
+    T = np.arange(0, 3.0 + c.dt / 2, c.dt)
+    r = control.input_output_response(loop, T, np.full_like(T, 4.0))
+    ref = holding.simulate_hold_surrogate(s, c, duration=3.0)
+    assert np.max(np.abs(r.outputs[0] - ref.x)) < 1e-9
+    assert np.max(np.abs(r.outputs[1] - ref.V)) < 1e-3 and np.min(ref.V) < 0 < np.max(ref.V)
 
 
 def test_a_python_control_loop_on_the_sampled_system_loses_the_dc_hold_as_the_compiled_loop_does(s):
     # the DC-amplitude loop the full model loses (test above): built with
     # control.interconnect at python-control's defaults, it grows as the compiled loop does
     c = dataclasses.replace(holding.tune_hold_controller(s, 0.5e-3, 4.0, frequency=10.0), mode="dc")
-    loop = control.interconnect([s.system(dt=c.dt, name="plant"), _sampled_pi(c, c.dt)], inputs=["force"],
+    loop = control.interconnect([s.system(dt=c.dt, name="plant"), c.system()], inputs=["force"],
                                 outputs=["stroke", "voltage"], check_unused=False)
     D = 40.0
     T = np.arange(0, D + c.dt / 2, c.dt)
