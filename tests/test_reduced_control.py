@@ -299,3 +299,21 @@ def test_a_python_control_loop_on_the_sampled_system_loses_the_dc_hold_as_the_co
     dev = np.sqrt(np.mean((x[T > 2.0] - c.x_ref) ** 2))
     dev_ref = ref.metrics(c.x_ref, period=1.0)["rms_dev"]
     assert dev > 50e-6 and dev == pytest.approx(dev_ref, rel=0.5), (dev, dev_ref)
+
+
+@pytest.mark.xfail(strict=True, reason="breakdown 9 (docs/guide/surrogates.md): the loop comes to rest where the "
+                   "front crosses a material point, at which the wakes' renewal sources jump; a continuous source "
+                   "removes the lock but costs the unipolar trains")
+def test_a_dc_loop_does_not_rest_on_a_material_point():
+    """Fig. 10a (N = 161) at half its static stroke under 6 kV and 4 N (309 um): the full
+    model's DC loop grows into a limit cycle (537 um swing over the last 10 s), the
+    surrogate's settles with its front 2.5 um from the material point at 8.5 mm."""
+    p = preset("peano-fig10").replace(N=161)
+    s = reduced.charge(p)
+    x_ref = 0.5 * float(s.equilibrium(6000.0, 4.0)[0])
+    cd = dataclasses.replace(holding.tune_hold_controller(s, x_ref, 4.0, frequency=10.0), mode="dc")
+    swing = []
+    for r in (holding.simulate_hold(p, cd, duration=60.0), holding.simulate_hold_surrogate(s, cd, duration=60.0)):
+        swing.append(float(np.ptp(r.x[r.t >= 50.0])))
+    assert swing[0] > 0.01 * x_ref         # the full model loses the hold
+    assert swing[1] > 0.01 * x_ref, swing  # the surrogate must too
