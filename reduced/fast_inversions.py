@@ -109,12 +109,11 @@ def _averaged_span(s, stage):
 def charge_limit(s, V: float) -> float:
     """The largest charge (C/m^2) a window may start with at amplitude V: RIPPLE_SHARE |V|
     over the largest |c1 / c0| of the force map."""
-    memo = s.__dict__.setdefault("_rates", {})
-    hit = memo.get("c1/c0")
+    hit = s.__dict__.get("_c1_over_c0")        # kept on the surrogate for its maps
     if hit is None or hit[0] is not s.tables:
         c0, c1 = s.tables[:, sk.C0], s.tables[:, sk.C1]
         ok = c0 > 0
-        hit = memo["c1/c0"] = (s.tables, float(np.max(np.abs(c1[ok]) / c0[ok])) if ok.any() else math.inf)
+        hit = s._c1_over_c0 = (s.tables, float(np.max(np.abs(c1[ok]) / c0[ok])) if ok.any() else math.inf)
     return RIPPLE_SHARE * abs(V) / hit[1] if hit[1] > 0 else math.inf
 
 
