@@ -16,7 +16,7 @@
 Goals (issues 9, 23): (1) >= 20x, (2) >= 1000x, (3) >= 10x, (4) speedup >= 10. Also
 prints the errors of each pair.
 
-    python benchmarks/bench_reduced.py [--repeats N] [--hour-repeats N]
+    python benchmarks/bench_reduced.py [--repeats N] [--hour-repeats N] [--family charge|lattice]
 """
 from __future__ import annotations
 
@@ -57,10 +57,11 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=30)
     ap.add_argument("--hour-repeats", type=int, default=3)
+    ap.add_argument("--family", choices=["charge", "lattice"], default="charge")
     a = ap.parse_args()
     p = preset("vshape-table1")
     t0 = time.perf_counter()
-    s = reduced.fit(p, family="charge", progress=False)
+    s = reduced.fit(p, family=a.family, progress=False)
     print(f"fit (training + held-out full runs and the search): {time.perf_counter() - t0:.1f} s; "
           f"{s.n_states} states {s.state_names}")
 

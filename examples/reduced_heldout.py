@@ -2,13 +2,14 @@
 structure and constants were frozen), every physics the full model carries, drives the
 fit never saw. Writes a Markdown table and a CSV (examples/figures/reduced_heldout.*).
 
-    python examples/reduced_heldout.py [--seed 20261125] [--quick]
+    python examples/reduced_heldout.py [--seed 20261125] [--quick] [--family charge|lattice]
 
 Goals (issue 23): stroke RMS <= 2 % of range, DC unzipping speed <= 5 %, drift over the
 run within max(1 um, 20 %) with the right sign. The surrogate is the unfitted charge
-family (reduced.charge: c_ell = 1.2, c_w = 2, c_m = 0.03, c_adv = 0.5, 15 material points); nothing is
-tuned here. Then the 10 Hz PI stroke hold on each device at two references: the
-surrogate's tracking RMS within 1.2x the full model's; and the same gains on a DC
+family (reduced.charge: c_ell = 1.2, c_w = 2, c_m = 0.03, c_adv = 0.5, 15 material points), or with
+--family lattice the lattice family (reduced.lattice: a point at every node, nothing fitted; its
+tables go to reduced_heldout_lattice.*); nothing is tuned here. Then the 10 Hz PI stroke hold on
+each device at two references: the surrogate's tracking RMS within 1.2x the full model's; and the same gains on a DC
 amplitude, which the full model may not hold: the surrogate must lose the hold where it
 does.
 """
@@ -38,6 +39,13 @@ PHYSICS = {
     "pol+R_s": {"chi_p": 0.02, "tau_p": 0.5, "R_s": 1e6},
     "all": {"m": 0.03, "k": 100.0, "chi_p": 0.02, "tau_p": 0.5, "R_s": 1e6},
 }
+
+
+FAMILY = "charge"      # the family under test (main's --family)
+
+
+def build(p):
+    return reduced.build(p, FAMILY)
 
 
 def draw_devices(seed: int):
@@ -74,7 +82,7 @@ def drives(V, F, seed):
 
 
 def row(dev, phys, name, p, proto, load):
-    s = reduced.charge(p)
+    s = build(p)
     c = compare(s, proto, load)            # the full model and the surrogate, the same metrics
     dc = name in ("reset+DC", "V step", "staircase+load")
     us_f, us_r = c["unzipping_speed_full"], c["unzipping_speed_reduced"]
@@ -96,7 +104,7 @@ def hold_row(dev, p, fraction, duration=30.0):
     import dataclasses
 
     from reduced import holding
-    s = reduced.charge(p)
+    s = build(p)
     x_ref = fraction * float(s.equilibrium(6000.0, 4.0)[0])
     c = dataclasses.replace(holding.tune_hold_controller(s, x_ref, 4.0, frequency=10.0), mode="bipolar")
     mf = holding.simulate_hold(p, c, duration=duration).metrics(c.x_ref, period=0.1)
@@ -127,7 +135,11 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=20261125)
     ap.add_argument("--quick", action="store_true", help="plain and polarization physics only")
     ap.add_argument("--out", default=str(Path(__file__).parent / "figures"))
+    ap.add_argument("--family", choices=["charge", "lattice"], default="charge")
     a = ap.parse_args(argv)
+    global FAMILY
+    FAMILY = a.family
+    stem = "reduced_heldout" if a.family == "charge" else f"reduced_heldout_{a.family}"
     rows = []
     devs = draw_devices(a.seed)
     physics = {k: PHYSICS[k] for k in (["plain", "polarization"] if a.quick else PHYSICS)}
@@ -149,13 +161,14 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     keys = ["device", "physics", "drive", "range_um", "rms_pct", "speed_pct", "drift_full_um", "drift_reduced_um",
             "drift_ok", "states", "error"]
-    with open(out / "reduced_heldout.csv", "w", newline="") as fh:
+    with open(out / f"{stem}.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, keys)
         w.writeheader()
         for r in rows:
             w.writerow({k: r.get(k) for k in keys})
     drive_names = list(drives(6000.0, 4.0, a.seed))
-    lines = [f"seed {a.seed}; cells: stroke RMS % of range / DC speed error % / drift full -> surrogate um "
+    lines = [f"seed {a.seed}, {a.family} family; cells: stroke RMS % of range / DC speed error % / drift full -> "
+             f"surrogate um "
              f"(a '!' marks a missed goal)", "",
              "| device | physics | " + " | ".join(drive_names) + " |", "|---|---|" + "---|" * len(drive_names)]
     for dev in devs:
@@ -191,7 +204,7 @@ def main(argv=None):
               f"{'!' if h['ratio'] > 1.2 else ''}{h['ratio']:.2f} | {'' if h['dc_agree'] else '!'}"
               f"{h['dc_full_um']:.1f} / {h['dc_reduced_um']:.1f} | {h['dc_swing_full_um']:.2f} / "
               f"{h['dc_swing_reduced_um']:.2f} |" for h in holds]
-    (out / "reduced_heldout.md").write_text("\n".join(lines) + "\n")
+    (out / f"{stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
 

@@ -9,10 +9,10 @@ polarity-inversion drive schemes.
     s.save("act.surrogate.json"); reduced.load("act.surrogate.json")
 """
 from .compare import compare
-from .families import FAMILIES, build, charge, lumped
+from .families import FAMILIES, build, charge, lattice, lumped
 from .fitting import Condition, Envelope, evaluate, fit
 from .files import load
 from .surrogate import Surrogate, SurrogateError, SurrogateResult
 
-__all__ = ["FAMILIES", "build", "charge", "lumped", "compare", "Condition", "Envelope", "evaluate", "fit",
+__all__ = ["FAMILIES", "build", "charge", "lattice", "lumped", "compare", "Condition", "Envelope", "evaluate", "fit",
            "Surrogate", "SurrogateError", "SurrogateResult", "load"]

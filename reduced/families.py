@@ -17,6 +17,13 @@ charge   The full model reduced in material terms (dfa_model/numerics/surrogate_
          branch each state carries its P, and the branch's force over the unzipped
          length is quadratic in the points' P (frozen.polarization_weights). The moving
          front renews the layer over ell = c_ell w_f(x): fit()'s one number.
+lattice  A material point at every node of the full model's lattice (no layer, no wakes,
+         no renewal, nothing fitted; frozen.lattice_tables): each point has the full
+         model's pointwise physics at its hat-weighted inverse gap (the nodal scheme with
+         its Galerkin coupling lumped), the force is the full model's quadratic map in
+         (V, q_i, P_i) and the current its affine map, read off at each stroke. N (2N with
+         the branch) charge states: the most faithful family (every goal of issue 23 on
+         the development panel) and the slowest (4-8x faster than the full model).
 """
 from __future__ import annotations
 
@@ -27,7 +34,7 @@ from dfa_model.numerics import surrogate_kernel as sk
 from . import frozen
 from .surrogate import Surrogate
 
-FAMILIES = ("lumped", "charge")
+FAMILIES = ("lumped", "charge", "lattice")
 N_POINTS = 15          # material points of the charge family (2.9 mm apart on Table 1's 40 mm electrode)
 # the unfitted charge family's constants, chosen on development devices only (Table 1,
 # Fig. 10a and a third V-shape; 8 physics x 7 drives, docs/guide/surrogates.md): the
@@ -102,7 +109,19 @@ def charge(params, n_grid: int = 161, c_ell: float = C_ELL, n_points: int = N_PO
     return Surrogate("charge", model.params, xg, tab, n_points, c_ell, info, c_w, c_m=c_m, c_adv=c_adv)
 
 
+def lattice(params, n_grid: int | None = None) -> Surrogate:
+    """A material point at every node of the full model's lattice with the full model's
+    pointwise physics at its hat-weighted gap, the force and the current read off the
+    full model at each stroke (frozen.lattice_tables): no layer, no renewal, nothing
+    fitted."""
+    model = frozen.as_model(params)
+    xg, tab = frozen.lattice_tables(model, n_grid)
+    a, _ = frozen.zipped_rates(frozen.plain(model))
+    info = {"source": "full model's frozen-stroke maps at every lattice node", "tau": -1.0 / a}
+    return Surrogate("lattice", model.params, xg, tab, model.params.N, float("inf"), info)
+
+
 def build(params, family: str, **kw) -> Surrogate:
     if family not in FAMILIES:
         raise ValueError(f"family: got {family!r}, expected one of {', '.join(FAMILIES)}")
-    return lumped(params, **kw) if family == "lumped" else charge(params, **kw)
+    return {"lumped": lumped, "charge": charge, "lattice": lattice}[family](params, **kw)

@@ -148,13 +148,21 @@ def _loss(r) -> float:
 
 
 def fit(params: Parameters, family: str = "charge", envelope: Envelope | None = None, executor=None,
-        progress=True, n_grid: int = 161):
+        progress=True, n_grid: int | None = None):
     """Build the surrogate of `family` for `params`, fit its free numbers to full-model
     runs over `envelope` (training conditions), and report its errors on the held-out
     conditions in `info['heldout']`."""
     from scipy.optimize import least_squares
     envelope = envelope or Envelope()
-    base = families.build(params, family, n_grid=n_grid)
+    base = families.build(params, family, **({} if n_grid is None else {"n_grid": n_grid}))
+    n_grid = 161 if n_grid is None else n_grid
+    if family == "lattice":
+        # nothing to fit: every number is read off the full model
+        s = base
+        s.info.update({"fitted": {"theta": [], "training": []}})
+        if envelope.heldout:
+            s.info["heldout"] = evaluate(s, envelope.heldout, executor=executor, progress=progress)
+        return s
     fulls = full_runs(base.params, envelope.training, executor, progress, "training runs")
     if family == "charge":
         # one number: how far the moving front goes to renew its layer, ell = c_ell w_f;

@@ -8,6 +8,8 @@ so a surrogate follows whatever physics the model carries.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from dfa_model import DFAModel, Parameters
@@ -322,3 +324,181 @@ def polarization_weights(model: DFAModel, xg, L_a, iu_a, s_pts):
             np.add.at(D[k], i + 1, 0.5 * ds * ge * w1 * w1)
             np.add.at(O[k], i, 0.5 * ds * ge * w0 * w1)
     return W_aa, D, O
+
+
+# ------------------------------------------------------------------ the lattice form
+def _geometric_twin(pm: DFAModel) -> DFAModel:
+    """The plain model with a liquid resistivity that makes the points' charging rate
+    c = 1/tau_l - 1/tau_f = 1/tau_f: the node rates c eps_l <1/u>_i V then give the
+    hat-weighted inverse gaps <1/u>_i, which are geometry (any resistivity has the same)."""
+    p = pm.params
+    return DFAModel(p.replace(rho_l=0.5 * p.tau_f / p.eps_l))
+
+
+LATTICE_GRID_PER_NODE = 4   # stroke grid points per node spacing the front crosses (lattice_grid)
+LATTICE_N_MAX = 201         # the lattice family's largest N (a state per node; tables ~ N^2)
+N_CURRENT = 161             # the current's weights: probed on this coarser grid, interpolated
+
+
+def lattice_grid(model: DFAModel) -> int:
+    """The lattice form's stroke grid: LATTICE_GRID_PER_NODE points per node spacing the
+    front crosses. A node's force weights kink where the front crosses its hat, and a
+    grid of one point per spacing (161 on a random Peano-HASEL at N = 161) put a
+    telegraph's drift at 5.8 um against the full model's 8.0 (321 points: 8.1, 641: 7.9)."""
+    p = model.params
+    lz_max = float(model.kin.lz(model.kin.x_e))
+    return max(161, int(math.ceil(LATTICE_GRID_PER_NODE * (p.N - 1) * min(lz_max / p.l_e, 1.0))) + 1)
+
+
+def _profile_on(model: DFAModel, x: float, s: np.ndarray):
+    """(u, dt_l/dx) at the unzipped positions s (> l_z) at stroke x: one profile call per
+    point (kinematics.profile, the full model's own)."""
+    from dfa_model.physics.kinematics import profile
+    kin = model.kin.state(x)
+    lay, geo = model.kin.layout_id, model.kin.geo
+    T0 = float(model.mat[T0_INDEX])
+    gap = np.empty(len(s))
+    dgap = np.empty(len(s))
+    for k, v in enumerate(s - kin[0]):
+        gap[k], dgap[k] = profile(lay, geo, kin, float(v)) if v > 0 else (0.0, 0.0)
+    return model.params.t_lz + gap + T0, dgap * kin[1]
+
+
+def hat_integrals(s_pts: np.ndarray, s: np.ndarray, g: np.ndarray):
+    """(I1, I2, I2o): the integrals over the sampled positions s (trapezoid; s sorted and
+    holding every node inside its span, so each piece lies in one element) of g phi_i,
+    g phi_i^2 and g phi_i phi_(i+1), phi_i the nodes' hat functions."""
+    n = len(s_pts)
+    I1, I2, I2o = np.zeros(n), np.zeros(n), np.zeros(n)
+    if len(s) < 2:
+        return I1, I2, I2o
+    j = np.clip(np.searchsorted(s_pts, 0.5 * (s[1:] + s[:-1]), side="right") - 1, 0, n - 2)
+    h = s_pts[j + 1] - s_pts[j]
+    ds = np.diff(s)
+    for end in (0, 1):
+        se, ge = s[end:len(s) - 1 + end], g[end:len(g) - 1 + end]
+        f = np.clip((se - s_pts[j]) / h, 0.0, 1.0)
+        w = 0.5 * ds * ge
+        np.add.at(I1, j, w * (1.0 - f))
+        np.add.at(I1, j + 1, w * f)
+        np.add.at(I2, j, w * (1.0 - f) ** 2)
+        np.add.at(I2, j + 1, w * f * f)
+        np.add.at(I2o, j, w * f * (1.0 - f))
+    return I1, I2, I2o
+
+
+def lattice_tables(model: DFAModel, n_grid: int | None = None):
+    """(x_grid, tables) of the lattice form (surrogate_kernel's columns, module
+    docstring there): a material point at every node of the full model's lattice, each
+    with the full model's pointwise physics at its hat-weighted inverse gap <1/u>_i (the
+    nodal scheme's rates with the Galerkin coupling lumped: row sums, read off its rhs),
+    the force's quadratic map in (V, q_i, P_i) and the source current's affine map in
+    (V, q_i, dx/dt).
+
+    The force is F = K int (eps_l V - T0 q(s))^2 (dt_l/dx) / u^2 ds over the unzipped
+    length with q(s) linear between the nodes: its node weights are integrals of the hat
+    functions against (dt_l/dx) / u^2 (hat_integrals on a grid graded towards the front),
+    scaled by K from the full model's own force at each stroke; likewise the branch's
+    P^2 force against dt_l/dx. The current's weights are probed (a node at a time) on a
+    coarser grid (N_CURRENT) and interpolated: they only enter the current and V_d."""
+    if model.params.scheme != "continuum":
+        raise ValueError(f"scheme: the lattice family reads the nodes of the 'continuum' scheme, got "
+                         f"{model.params.scheme!r} (use the charge family, or scheme = 'continuum')")
+    if model.params.N > LATTICE_N_MAX:
+        raise ValueError(f"N: the lattice family carries a state per node, N = {model.params.N} would be "
+                         f"{model.params.N} states and tables of ~{model.params.N ** 2 // 100_000 * 2} x 10^5 "
+                         f"numbers; allowed N <= {LATTICE_N_MAX} (set N, or use the charge family)")
+    pm = plain(model)
+    p = pm.params
+    N, nb = p.N, pm.nbord
+    x_e = model.kin.x_e
+    n_grid = lattice_grid(pm) if n_grid is None else int(n_grid)
+    xg = np.linspace(0.0, x_e, n_grid)
+    qs = q_scale(pm)
+    s_pts = pm.element_edges()
+    n = N
+    tab = np.zeros((n_grid, sk.NFIX + 3 * n + sk.NLAT * n))
+    o = sk.NFIX + 3 * n
+    C1, C2, C2O, IQ, JQ = (o + k * n for k in range(sk.NLAT))
+    geo = _geometric_twin(pm)
+    gp = geo.params
+    c_geo = 1.0 / (gp.rho_l * gp.eps_l) - 1.0 / gp.tau_f
+    T0 = float(pm.mat[T0_INDEX])
+    eps_l = p.eps_l
+    dv = 1e-3 * x_e
+    r = np.unique(np.r_[np.geomspace(1e-8, 1.0, 900), np.linspace(0.0, 1.0, 401)])
+    for k, x in enumerate(xg):
+        y0 = _uniform(pm, x)
+        fv = pm.electrostatic_force(y0, V_REF)
+        tab[k, sk.C0] = fv / V_REF ** 2
+        iv = _current(pm, x, V_REF, None, 0.0)
+        tab[k, sk.I0] = iv / V_REF
+        tab[k, sk.J0] = (_current(pm, x, V_REF, None, dv) - iv) / (dv * V_REF)
+        tab[k, sk.CAP] = pm.diagnostics(state(pm, x), V_REF)[0][R_C]
+        rates = geo.rhs(_uniform(geo, x), V_REF, 0.0)[nb:nb + N]
+        tab[k, sk.NFIX:sk.NFIX + n] = rates / (c_geo * gp.eps_l * V_REF)
+        lz = float(pm.kin.lz(x))
+        if lz >= p.l_e:
+            continue
+        sq = np.unique(np.r_[lz + (p.l_e - lz) * r, s_pts[s_pts > lz]])
+        u, G = _profile_on(pm, x, sq)
+        g = G / (u * u)
+        I1, I2, I2o = hat_integrals(s_pts, sq, g)
+        K = tab[k, sk.C0] / (eps_l ** 2 * np.trapezoid(g, sq))     # the full model's own scale
+        tab[k, C1:C1 + n] = -2.0 * K * eps_l * T0 * I1
+        tab[k, C2:C2 + n] = K * T0 * T0 * I2
+        tab[k, C2O:C2O + n] = K * T0 * T0 * I2o
+    # the current's weights: a node at a time on a coarser grid (they only enter the
+    # current and, behind R_s, V_d), interpolated
+    xc = np.linspace(0.0, x_e, min(N_CURRENT, n_grid))
+    W = np.zeros((len(xc), 2 * n))
+    for k, x in enumerate(xc):
+        for i in range(n):
+            q = np.zeros(N)
+            q[i] = qs
+            ic = _current(pm, x, 0.0, q, 0.0)
+            W[k, i] = ic / qs
+            W[k, n + i] = (_current(pm, x, 0.0, q, dv) - ic) / (dv * qs)
+    for c in range(2 * n):
+        tab[:, IQ + c] = np.interp(xg, xc, W[:, c])
+    tab[:, sk.DLZ] = pm.kin.dlz_dx(xg)
+    tab[:, sk.LZ] = pm.kin.lz(xg)
+    # the layer's columns are never read in the lattice form: the zipped material's point
+    tab[:, sk.IUF] = 1.0 / u0(pm)
+    tab[:, sk.T0F] = T0
+    tab[:, sk.IUA] = 1.0 / u0(pm)
+    tab[:, sk.WF] = 1.0
+    if model.polarized:
+        D, O = lattice_polarization_weights(model, xg)
+        tab[:, sk.NFIX + n:sk.NFIX + 2 * n] = D
+        tab[:, sk.NFIX + 2 * n:sk.NFIX + 3 * n] = O
+    return xg, tab
+
+
+def lattice_polarization_weights(model: DFAModel, xg):
+    """(D, O): the branch's force sum_i D_i P_i^2 + 2 sum_i O_i P_i P_(i+1) at each stroke:
+    its energy t_l P^2 / (2 chi_p eps_l) gives c int (dt_l/dx) P(s)^2 ds over the unzipped
+    length, P(s) linear between the nodes (hat_integrals), c read off the full model's
+    force with a uniform P at each stroke (V = 0, q = 0: no P-q or P-V terms)."""
+    p = model.params
+    m = DFAModel(p.replace(R_s=0.0)) if model.series else model
+    N, nb = p.N, m.nbord
+    D = np.zeros((len(xg), N))
+    O = np.zeros((len(xg), N))
+    s_pts = m.element_edges()
+    r = np.unique(np.r_[np.geomspace(1e-8, 1.0, 900), np.linspace(0.0, 1.0, 401)])
+    for k, x in enumerate(xg):
+        lz = float(m.kin.lz(x))
+        if lz >= p.l_e:
+            continue
+        y = m.initial_state(x)
+        y[nb + N:nb + 2 * N] = 1.0
+        sq = np.unique(np.r_[lz + (p.l_e - lz) * r, s_pts[s_pts > lz]])
+        _, G = _profile_on(m, x, sq)
+        norm = np.trapezoid(G, sq)
+        if not abs(norm) > 0:
+            continue
+        c = m.electrostatic_force(y, 0.0) / norm        # the force of a uniform unit P
+        _, I2, I2o = hat_integrals(s_pts, sq, G)
+        D[k], O[k] = c * I2, c * I2o
+    return D, O

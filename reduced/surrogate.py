@@ -21,6 +21,12 @@ in `state_names`):
 
 with stops at x = 0 and x_e. The families differ in where the maps come from (see
 families.py). Inputs `voltage`, `force`; outputs `stroke`, `current`.
+
+The lattice family has no q_f: its points sit at the full model's nodes (q_i, P_i at every
+node), and the force and current are read off them:
+
+    F_e = c0(x) V_d^2 + sum_i (c1_i(x) V_d q_i + c2_i(x) q_i^2 + 2 o_i(x) q_i q_(i+1)) + (P's form)
+    current  C(x) dV/dt + dx/dt (j0 V + sum_i jq_i q_i) + i0 V + sum_i iq_i q_i
 """
 from __future__ import annotations
 
@@ -135,7 +141,8 @@ class Surrogate:
             raise ValueError(f"n_points: got {n_points!r}, expected 0 or at least 2")
         # per material point its inverse gap, and with the polarization branch the weights
         # of its P in the force (frozen.polarization_weights)
-        cols = sk.NFIX + self.n_points * (3 if params.chi_p > 0 and self.n_points else 1)
+        cols = sk.NFIX + self.n_points * ((3 + sk.NLAT) if self.lattice else
+                                          (3 if params.chi_p > 0 and self.n_points else 1))
         if self.tables.shape != (len(self.x_grid), cols):
             raise ValueError(f"tables: expected shape ({len(self.x_grid)}, {cols}), got {self.tables.shape}")
         self.x_e = float(self.x_grid[-1])
@@ -153,6 +160,12 @@ class Surrogate:
 
     # ------------------------------------------------------------------ structure
     @property
+    def lattice(self) -> bool:
+        """The lattice form: a material point at every node of the full model's lattice,
+        the force and current read off the points (no front layer, no wakes)."""
+        return self.family == "lattice"
+
+    @property
     def has_mass(self) -> bool:
         return self.params.m > 0
 
@@ -168,7 +181,7 @@ class Surrogate:
     def has_wakes(self) -> bool:
         """The wakes behind and ahead of the layer are states (with material points and a
         finite renewal length)."""
-        return self.n_points >= 2 and np.isfinite(self.c_ell)
+        return self.n_points >= 2 and np.isfinite(self.c_ell) and not self.lattice
 
     @property
     def ny(self) -> int:
@@ -181,7 +194,9 @@ class Surrogate:
         n = self.n_points
         pol = self.polarized
         out = [("x", sk.X)] + ([("v", sk.VEL)] if self.has_mass else []) + \
-            ([("V_d", sk.VD)] if self.series else []) + [("q_f", sk.QF)] + ([("P_f", sk.PF)] if pol else [])
+            ([("V_d", sk.VD)] if self.series else [])
+        if not self.lattice:
+            out += [("q_f", sk.QF)] + ([("P_f", sk.PF)] if pol else [])
         if self.has_wakes:
             out += [("q_b", sk.QB)] + ([("P_b", sk.PB)] if pol else []) + [("q_a", sk.QA)] + \
                 ([("P_a", sk.PA)] if pol else [])
@@ -239,6 +254,7 @@ class Surrogate:
         out[sk.P_DM] = self.c_m if (lag and self.has_wakes) else 0.0
         out[sk.P_ADV] = self.c_adv
         out[sk.P_IU0] = 1.0 / (p.t_lz + out[sk.P_T0])
+        out[sk.P_LAT] = 1.0 if self.lattice else 0.0
         return out
 
     def q_scale(self) -> float:

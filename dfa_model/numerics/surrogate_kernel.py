@@ -82,8 +82,13 @@ NFIX = 15
 LAG_BAND = 1.0    # the renewal sets in over this many material lags beyond the lag
 # parameters
 (P_XE, P_B, P_M, P_K, P_RS, P_CHI, P_TAUP, P_TAUF, P_EPSL, P_T0, P_ICELL, P_AVG, P_N, P_LE, P_ITAUL,
- P_CONST, P_IWB, P_IU0, P_VS, P_DM, P_ADV) = range(21)
-NPAR = 21
+ P_CONST, P_IWB, P_IU0, P_VS, P_DM, P_ADV, P_LAT) = range(22)
+NPAR = 22
+# the lattice form (par P_LAT > 0; module docstring): per lattice point i its columns at
+# lat0(n) + k n + i, k = LAT_C1 .. LAT_JQ: the force's V q_i weight, its q_i^2 and
+# q_i q_(i+1) weights, and the source current's conduction and motion weights of q_i
+LAT_C1, LAT_C2, LAT_C2O, LAT_IQ, LAT_JQ = range(5)
+NLAT = 5
 # record columns
 R_T, R_X, R_V, R_QF, R_PF, R_VD, R_VOLT, R_F, R_I, R_FE = range(10)
 NREC = 10
@@ -138,6 +143,62 @@ def table_row(tab, xe, x, rw):
     # the material points' gaps enter only their own (slow) rates: linear pieces do
     for c in range(NFIX, tab.shape[1]):
         rw[c] = tab[i, c] * (1.0 - f) + tab[i + 1, c] * f
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _blend(tab, rw, r0, r1, r2, r3, w0, w1, w2, w3, c0, c1):
+    """rw[c] = w0 tab[r0, c] + w1 tab[r1, c] + w2 tab[r2, c] + w3 tab[r3, c] for c in
+    [c0, c1): one interpolation's weights for many columns (a branch-free loop)."""
+    for c in range(c0, c1):
+        rw[c] = w0 * tab[r0, c] + w1 * tab[r1, c] + w2 * tab[r2, c] + w3 * tab[r3, c]
+
+
+@njit(cache=True, _nrt=False)
+def lattice_row(tab, xe, x, rw, n, le, pol):
+    """table_row for the lattice form: the force's weights (the points' charges' and
+    polarizations') cubic Hermite like the fixed columns (the force's slope in x must
+    not jump at the grid points: linear pieces there took 2.5x the steps), the gaps and
+    the current's weights linear; a point whose hat is zipped over the whole Hermite
+    stencil has no force weights (exact zeros in the tables), so only the unzipped
+    points are interpolated. The cubic Hermite with centred slopes is a fixed blend of
+    the rows i - 1 .. i + 2, its weights computed once for all columns."""
+    i, f = _cell(tab, xe, x)
+    for c in range(NFIX):
+        rw[c] = _hermite(tab, i, c, f)
+    ng = tab.shape[0]
+    g = 1.0 - f
+    _blend(tab, rw, i, i + 1, i, i + 1, g, f, 0.0, 0.0, NFIX, NFIX + n)
+    # Hermite: h00 a + h10 ma + h01 b + h11 mb, ma = (b - p) / 2 (b - a at the first
+    # interval), mb = (nx - a) / 2 (b - a at the last)
+    f2 = f * f
+    f3 = f2 * f
+    h00, h10, h01, h11 = 2.0 * f3 - 3.0 * f2 + 1.0, f3 - 2.0 * f2 + f, -2.0 * f3 + 3.0 * f2, f3 - f2
+    wp, wa, wb, wn = 0.0, h00, h01, 0.0
+    rp, rn = i, i + 1
+    if i > 0:
+        rp = i - 1
+        wp -= 0.5 * h10
+        wb += 0.5 * h10
+    else:
+        wa -= h10
+        wb += h10
+    if i + 2 < ng:
+        rn = i + 2
+        wn += 0.5 * h11
+        wa -= 0.5 * h11
+    else:
+        wb += h11
+        wa -= h11
+    # zipped over the stencil: s_(k+1) <= l_z at its least stroke (row rp)
+    k0 = min(int(tab[rp, LZ] / (le / (n - 1))), n)
+    o = lat0(n)
+    for base in (NFIX + n, NFIX + 2 * n, o + LAT_C1 * n, o + LAT_C2 * n, o + LAT_C2O * n):
+        if base < o and not pol:
+            continue          # no polarization branch: its weights are never read
+        for k in range(k0):
+            rw[base + k] = 0.0
+        _blend(tab, rw, rp, i, i + 1, rn, wp, wa, wb, wn, base + k0, base + n)
+    _blend(tab, rw, i, i + 1, i, i + 1, g, f, 0.0, 0.0, o + LAT_IQ * n, o + (LAT_JQ + 1) * n)
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -260,6 +321,40 @@ def _polarization_slopes(y, rw, n, rate, cp):
 
 
 @njit(cache=True, _nrt=False, inline="always")
+def lat0(n):
+    """The first lattice column: after the points' inverse gaps and their P weights."""
+    return NFIX + 3 * n
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _charge_force(y, rw, n, Vd):
+    """The lattice form's force from the points' charges: V q_i, q_i^2 and q_i q_(i+1)
+    weights (the full model's quadratic map read off at each stroke, frozen.lattice_tables)."""
+    o = lat0(n)
+    F = 0.0
+    for i in range(n):
+        q = y[NODE0 + i]
+        F += q * (rw[o + LAT_C1 * n + i] * Vd + rw[o + LAT_C2 * n + i] * q)
+        if i + 1 < n:
+            F += 2.0 * rw[o + LAT_C2O * n + i] * q * y[NODE0 + i + 1]
+    return F
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _charge_slopes(y, rw, n, Vd, rate, cq):
+    """d(force)/dq_i of _charge_force, times `rate` (the stroke's or velocity's answer to
+    the force), into cq."""
+    o = lat0(n)
+    for i in range(n):
+        v = rw[o + LAT_C1 * n + i] * Vd + 2.0 * rw[o + LAT_C2 * n + i] * y[NODE0 + i]
+        if i + 1 < n:
+            v += 2.0 * rw[o + LAT_C2O * n + i] * y[NODE0 + i + 1]
+        if i > 0:
+            v += 2.0 * rw[o + LAT_C2O * n + i - 1] * y[NODE0 + i - 1]
+        cq[i] = rate * v
+
+
+@njit(cache=True, _nrt=False, inline="always")
 def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     """The core's rates (stroke, velocity, V_d, layer) into ydot at the maps' row rw, the
     zipped points' mean charge qz. Returns (force, source current, and the couplings of
@@ -276,7 +371,11 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     avg = par[P_AVG] > 0.0 and W >= 0.0
     VV = W if avg else Vd * Vd
     qf, Pf = y[QF], y[PF]
-    Fe = rw[C0] * VV + rw[C1] * Vd * qf + rw[C2] * qf * qf
+    lat = par[P_LAT] > 0.0
+    if lat:
+        Fe = rw[C0] * VV + _charge_force(y, rw, n, Vd)
+    else:
+        Fe = rw[C0] * VV + rw[C1] * Vd * qf + rw[C2] * qf * qf
     if par[P_CHI] > 0.0 and n >= 2:
         Fe += _polarization_force(y, rw, n)
     net = Fe - y[NY - 1] - par[P_K] * x
@@ -296,6 +395,27 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
             xd = 0.0
         ydot[VEL] = 0.0
     ydot[X] = xd
+    if lat:
+        # the lattice form: every charge is a lattice point's (no layer, no wakes)
+        for c in range(QF, SM + 1):
+            ydot[c] = 0.0
+        o = lat0(n)
+        sj = 0.0
+        si = 0.0
+        for i in range(n):
+            q = y[NODE0 + i]
+            si += rw[o + LAT_IQ * n + i] * q
+            sj += rw[o + LAT_JQ * n + i] * q
+        rest = xd * (rw[J0] * Vd + sj) + rw[I0] * Vd + si
+        if rs:
+            I = (V - Vd) / par[P_RS]
+            ydot[VD] = (I - rest) / rw[CAP]
+        else:
+            ydot[VD] = 0.0
+            I = rw[CAP] * vdot + rest
+        ydot[NY - 2] = 0.0
+        ydot[NY - 1] = 0.0
+        return Fe, I, -1, 0.0, -1, 0.0, 0.0
     # the front layer (an effective material point) and its wakes (zipped just behind:
     # the zipped gap; unzipped just ahead: the band's mean gap), each with its own rates
     _point(par, law, lawp, Vd, W, qf, Pf, rw[IUF], rw[T0F], pt)
@@ -398,8 +518,11 @@ def rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, jn, side=0.0):
     there if it has a row per point. Returns (electrostatic force, source current, ka,
     ra, kb, rb, fb: _core_rates)."""
     xe = par[P_XE]
-    table_row(tab, xe, min(max(y[X], 0.0), xe), rw)
     n = int(par[P_N])
+    if par[P_LAT] > 0.0:
+        lattice_row(tab, xe, min(max(y[X], 0.0), xe), rw, n, par[P_LE], par[P_CHI] > 0.0)
+    else:
+        table_row(tab, xe, min(max(y[X], 0.0), xe), rw)
     NY = NODE0 + 2 * n + 2
     qz = _points(y, W, par, law, lawp, ydot, rw, pt, jn, n, NY)
     return _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side)
@@ -483,7 +606,7 @@ def _couple(g, Jb, Bi, k, rate, row, Mc, pos, m):
 
 
 @njit(cache=True, _nrt=False)
-def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, rf, pol):
+def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, cq, rf, pol):
     """Factor I - g J: the points' 2 x 2 blocks (inverted into Bi), then the Schur
     complement of the m active core slots (the wakes' rows see their source points
     through the renewal; the mechanics' row rf sees every point's P through the
@@ -515,6 +638,9 @@ def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, rf, p
             if cp[i] != 0.0:
                 for c in range(m):
                     Mc[rf, c] -= g * g * cp[i] * (Bi[i, 2] * Jb[i, 0, c] + Bi[i, 3] * Jb[i, 1, c])
+            if cq[i] != 0.0:
+                for c in range(m):
+                    Mc[rf, c] -= g * g * cq[i] * (Bi[i, 0] * Jb[i, 0, c] + Bi[i, 1] * Jb[i, 1, c])
     _lu(Mc, piv, m)
 
 
@@ -530,7 +656,7 @@ def _uncouple(g, Bi, k, rate, row, b, n, rc, pos):
 
 
 @njit(cache=True, _nrt=False)
-def _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, rf, pol):
+def _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp, cq, rf, pol):
     """Solve (I - g J) z = b in place, with the factors of _factor (an inactive core
     state's row is the identity: its entry stays); pol: the actuator has the
     polarization branch."""
@@ -543,6 +669,8 @@ def _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp,
         for i in range(n):
             if cp[i] != 0.0:
                 rc[rf] += g * cp[i] * (Bi[i, 2] * b[NODE0 + i] + Bi[i, 3] * b[NODE0 + n + i])
+            if cq[i] != 0.0:
+                rc[rf] += g * cq[i] * (Bi[i, 0] * b[NODE0 + i] + Bi[i, 1] * b[NODE0 + n + i])
     _lu_solve(Mc, piv, rc, m)
     for r in range(m):
         b[_state(cl[r], NY)] = rc[r]
@@ -628,8 +756,9 @@ def _active_states(par, n, NY):
     active[X] = True
     active[VEL] = par[P_M] > 0.0
     active[VD] = par[P_RS] > 0.0
-    active[QF] = True
-    active[PF] = par[P_CHI] > 0.0
+    lat = par[P_LAT] > 0.0
+    active[QF] = not lat
+    active[PF] = par[P_CHI] > 0.0 and not lat
     chain = n >= 2 and par[P_ICELL] > 0.0
     active[QB] = chain
     active[QA] = chain
@@ -697,7 +826,7 @@ def _hold_jacobian(Jc, Jb, pos, m, n):
 
 @njit(cache=True, _nrt=False)
 def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb, ka, ra, kb, rb,
-            fb, Jb0, n, Mc, piv, Bi, NY, rc, cl, pos, m, cp, rf, Jn2, vs_k, fs_k, active, rtol, sc):
+            fb, Jb0, n, Mc, piv, Bi, NY, rc, cl, pos, m, cp, cq, rf, Jn2, vs_k, fs_k, active, rtol, sc):
     """One Rosenbrock-W step of size hs from y (F0 = f(y); the matrix I - g J factored):
     the three stages of ode23s and the scaled error of the embedded pair. yt receives the
     new state, F2 f there. Returns (error, and rhs's results at yt: force, current and the
@@ -706,7 +835,7 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     pol = par[P_CHI] > 0.0
     for i in range(NY):
         k1[i] = F0[i]
-    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, rf, pol)
+    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, cq, rf, pol)
     for i in range(NY):
         yt[i] = y[i] + 0.5 * hs * k1[i]
     rhs(yt, W, vd, tab, par, law, lawp, F1, rw, pt, mode, Jb0, side)
@@ -714,7 +843,7 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     F1[NY - 1] = fs_k
     for i in range(NY):
         k2[i] = F1[i] - k1[i]
-    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, rf, pol)
+    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, cq, rf, pol)
     for i in range(NY):
         k2[i] += k1[i]
         yt[i] = y[i] + hs * k2[i]
@@ -723,7 +852,7 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     F2[NY - 1] = fs_k
     for i in range(NY):
         k3[i] = F2[i] - d_e32 * (k2[i] - F1[i]) - 2.0 * (k1[i] - F0[i])
-    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, rf, pol)
+    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, cq, rf, pol)
     err = 0.0
     for i in range(NY - 2):
         if active[i]:
@@ -864,7 +993,9 @@ def integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0
     cl = np.empty(NCORE, dtype=np.int64)   # the active core slots
     pos = np.empty(NCORE, dtype=np.int64)  # slot -> its place among them (-1: inactive)
     cp = np.zeros(nb)                      # the mechanics' row's answer to each point's P
+    cq = np.zeros(nb)                      # ... and to each point's charge (the lattice form)
     pol_force = par[P_CHI] > 0.0 and n >= 2
+    lat = par[P_LAT] > 0.0
     nrec = rec.shape[0]
     xe = par[P_XE]
     d = 1.0 / (2.0 + math.sqrt(2.0))
@@ -911,19 +1042,24 @@ def integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0
                 F0[VEL] = 0.0
             # the polarization's force couples the mechanics' row to every point's P
             rf = -1
-            if pol_force and mode == FREE:
+            if (pol_force or lat) and mode == FREE:
                 rf = pos[VEL] if par[P_M] > 0.0 else pos[X]
-                _polarization_slopes(y, rw0, n, 1.0 / (par[P_M] if par[P_M] > 0.0 else par[P_B]), cp)
+                rate = 1.0 / (par[P_M] if par[P_M] > 0.0 else par[P_B])
+                if pol_force:
+                    _polarization_slopes(y, rw0, n, rate, cp)
+                if lat:
+                    _charge_slopes(y, rw0, n, y[VD] if par[P_RS] > 0.0 else y[NY - 2], rate, cq)
             tries = 0
             redo = False
             while True:
                 steps += 1
                 g = d * hs
-                _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, rf, par[P_CHI] > 0.0)
+                _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, cq, rf, par[P_CHI] > 0.0)
                 err, Fe2, I2, ka2, ra2, kb2, rb2, fb2 = _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt,
                                                                 mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb,
                                                                 ka, ra, kb, rb, fb, Jb0, n, Mc, piv, Bi,
-                                                                NY, rc, cl, pos, m, cp, rf, Jn2, vs[seg], fs[seg],
+                                                                NY, rc, cl, pos, m, cp, cq, rf, Jn2, vs[seg],
+                                                                fs[seg],
                                                                 active, rtol, sc)
                 if not (err == err):
                     return NONFINITE, row, steps, y
