@@ -404,10 +404,12 @@ def lattice_tables(model: DFAModel, n_grid: int | None = None):
     if model.params.scheme != "continuum":
         raise ValueError(f"scheme: the lattice family reads the nodes of the 'continuum' scheme, got "
                          f"{model.params.scheme!r} (use the charge family, or scheme = 'continuum')")
-    if model.params.N > LATTICE_N_MAX:
-        raise ValueError(f"N: the lattice family carries a state per node, N = {model.params.N} would be "
-                         f"{model.params.N} states and tables of ~{model.params.N ** 2 // 100_000 * 2} x 10^5 "
-                         f"numbers; allowed N <= {LATTICE_N_MAX} (set N, or use the charge family)")
+    N = model.params.N
+    if N > LATTICE_N_MAX:
+        size = (LATTICE_GRID_PER_NODE * (N - 1) + 1) * (sk.NFIX + (3 + sk.NLAT) * N)
+        raise ValueError(f"N: the lattice family carries a state per node: N = {N} would be {N} states (twice "
+                         f"that with the branch) and tables of up to {size / 1e6:.1f} million numbers; allowed "
+                         f"N <= {LATTICE_N_MAX} (set N, or use the charge family)")
     pm = plain(model)
     p = pm.params
     N, nb = p.N, pm.nbord

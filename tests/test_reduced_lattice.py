@@ -123,6 +123,8 @@ def test_files_python_control_and_errors(lat, tmp_path):
     assert control.dcgain(lin)[0, 0] == pytest.approx((x[1] - x[0]) / 20.0, rel=0.03)
     with pytest.raises(ValueError, match="scheme"):
         reduced.lattice(preset("vshape-table1").replace(scheme="continuum-p0"))
+    with pytest.raises(ValueError, match="N <= 201"):
+        reduced.lattice(preset("peano-fig10"))          # N = 401: a state per node
 
 
 def test_cli_reduce_compare_and_hold_chain(tmp_path, capsys):
