@@ -364,6 +364,15 @@ def _profile_on(model: DFAModel, x: float, s: np.ndarray):
     return model.params.t_lz + gap + T0, dgap * kin[1]
 
 
+_GRADED = np.unique(np.r_[np.geomspace(1e-8, 1.0, 900), np.linspace(0.0, 1.0, 401)])
+
+
+def _unzipped_positions(lz: float, l_e: float, s_pts: np.ndarray) -> np.ndarray:
+    """Quadrature positions over the unzipped length [l_z, l_e], graded towards the front
+    (where the integrands 1/u^2 peak), holding every node there (hat_integrals)."""
+    return np.unique(np.r_[lz + (l_e - lz) * _GRADED, s_pts[s_pts > lz]])
+
+
 def hat_integrals(s_pts: np.ndarray, s: np.ndarray, g: np.ndarray):
     """(I1, I2, I2o): the integrals over the sampled positions s (trapezoid; s sorted and
     holding every node inside its span, so each piece lies in one element) of g phi_i,
@@ -428,7 +437,9 @@ def lattice_tables(model: DFAModel, n_grid: int | None = None):
     T0 = float(pm.mat[T0_INDEX])
     eps_l = p.eps_l
     dv = 1e-3 * x_e
-    r = np.unique(np.r_[np.geomspace(1e-8, 1.0, 900), np.linspace(0.0, 1.0, 401)])
+    # the branch's force of a uniform unit P, read off the full model (without R_s, whose
+    # V_d state the force does not see; the same kinematics as the plain twin's)
+    mp = (DFAModel(model.params.replace(R_s=0.0)) if model.series else model) if model.polarized else None
     for k, x in enumerate(xg):
         y0 = _uniform(pm, x)
         fv = pm.electrostatic_force(y0, V_REF)
@@ -442,7 +453,7 @@ def lattice_tables(model: DFAModel, n_grid: int | None = None):
         lz = float(pm.kin.lz(x))
         if lz >= p.l_e:
             continue
-        sq = np.unique(np.r_[lz + (p.l_e - lz) * r, s_pts[s_pts > lz]])
+        sq = _unzipped_positions(lz, p.l_e, s_pts)
         u, G = _profile_on(pm, x, sq)
         g = G / (u * u)
         I1, I2, I2o = hat_integrals(s_pts, sq, g)
@@ -450,6 +461,8 @@ def lattice_tables(model: DFAModel, n_grid: int | None = None):
         tab[k, C1:C1 + n] = -2.0 * K * eps_l * T0 * I1
         tab[k, C2:C2 + n] = K * T0 * T0 * I2
         tab[k, C2O:C2O + n] = K * T0 * T0 * I2o
+        if mp is not None:
+            tab[k, sk.NFIX + n:sk.NFIX + 3 * n] = _polarization_row(mp, x, s_pts, sq, G)
     # the current's weights: a node at a time on a coarser grid (they only enter the
     # current and, behind R_s, V_d), interpolated
     xc = np.linspace(0.0, x_e, min(N_CURRENT, n_grid))
@@ -470,37 +483,21 @@ def lattice_tables(model: DFAModel, n_grid: int | None = None):
     tab[:, sk.T0F] = T0
     tab[:, sk.IUA] = 1.0 / u0(pm)
     tab[:, sk.WF] = 1.0
-    if model.polarized:
-        D, O = lattice_polarization_weights(model, xg)
-        tab[:, sk.NFIX + n:sk.NFIX + 2 * n] = D
-        tab[:, sk.NFIX + 2 * n:sk.NFIX + 3 * n] = O
     return xg, tab
 
 
-def lattice_polarization_weights(model: DFAModel, xg):
-    """(D, O): the branch's force sum_i D_i P_i^2 + 2 sum_i O_i P_i P_(i+1) at each stroke:
-    its energy t_l P^2 / (2 chi_p eps_l) gives c int (dt_l/dx) P(s)^2 ds over the unzipped
-    length, P(s) linear between the nodes (hat_integrals), c read off the full model's
-    force with a uniform P at each stroke (V = 0, q = 0: no P-q or P-V terms)."""
-    p = model.params
-    m = DFAModel(p.replace(R_s=0.0)) if model.series else model
-    N, nb = p.N, m.nbord
-    D = np.zeros((len(xg), N))
-    O = np.zeros((len(xg), N))
-    s_pts = m.element_edges()
-    r = np.unique(np.r_[np.geomspace(1e-8, 1.0, 900), np.linspace(0.0, 1.0, 401)])
-    for k, x in enumerate(xg):
-        lz = float(m.kin.lz(x))
-        if lz >= p.l_e:
-            continue
-        y = m.initial_state(x)
-        y[nb + N:nb + 2 * N] = 1.0
-        sq = np.unique(np.r_[lz + (p.l_e - lz) * r, s_pts[s_pts > lz]])
-        _, G = _profile_on(m, x, sq)
-        norm = np.trapezoid(G, sq)
-        if not abs(norm) > 0:
-            continue
-        c = m.electrostatic_force(y, 0.0) / norm        # the force of a uniform unit P
-        _, I2, I2o = hat_integrals(s_pts, sq, G)
-        D[k], O[k] = c * I2, c * I2o
-    return D, O
+def _polarization_row(m: DFAModel, x: float, s_pts, sq, G) -> np.ndarray:
+    """[D, O] at stroke x: the branch's force sum_i D_i P_i^2 + 2 sum_i O_i P_i P_(i+1). Its
+    energy t_l P^2 / (2 chi_p eps_l) gives c int (dt_l/dx) P(s)^2 ds over the unzipped
+    length (G = dt_l/dx at the positions sq), P(s) linear between the nodes
+    (hat_integrals), c read off the full model m's force with a uniform P (V = 0, q = 0:
+    no P-q or P-V terms)."""
+    N, nb = m.params.N, m.nbord
+    norm = np.trapezoid(G, sq)
+    if not abs(norm) > 0:
+        return np.zeros(2 * N)
+    y = m.initial_state(x)
+    y[nb + N:nb + 2 * N] = 1.0
+    c = m.electrostatic_force(y, 0.0) / norm        # the force of a uniform unit P
+    _, I2, I2o = hat_integrals(s_pts, sq, G)
+    return np.r_[c * I2, c * I2o]

@@ -355,6 +355,24 @@ def _charge_slopes(y, rw, n, Vd, rate, cq):
 
 
 @njit(cache=True, _nrt=False, inline="always")
+def _source_current(par, rw, ydot, xd, V, Vd, vdot, qmot, qcond, rs, NY):
+    """The source current from the motion of the gap and the charges' conduction and
+    charging (qmot, qcond: the charge states' terms of each); behind R_s the device
+    voltage's own equation into ydot, else the capacitive current of the input's ramp.
+    The inputs' rates are 0. Returns the current."""
+    rest = xd * (rw[J0] * Vd + qmot) + rw[I0] * Vd + qcond
+    if rs:
+        I = (V - Vd) / par[P_RS]
+        ydot[VD] = (I - rest) / rw[CAP]
+    else:
+        ydot[VD] = 0.0
+        I = rw[CAP] * vdot + rest
+    ydot[NY - 2] = 0.0
+    ydot[NY - 1] = 0.0
+    return I
+
+
+@njit(cache=True, _nrt=False, inline="always")
 def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
     """The core's rates (stroke, velocity, V_d, layer) into ydot at the maps' row rw, the
     zipped points' mean charge qz. Returns (force, source current, and the couplings of
@@ -406,16 +424,7 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
             q = y[NODE0 + i]
             si += rw[o + LAT_IQ * n + i] * q
             sj += rw[o + LAT_JQ * n + i] * q
-        rest = xd * (rw[J0] * Vd + sj) + rw[I0] * Vd + si
-        if rs:
-            I = (V - Vd) / par[P_RS]
-            ydot[VD] = (I - rest) / rw[CAP]
-        else:
-            ydot[VD] = 0.0
-            I = rw[CAP] * vdot + rest
-        ydot[NY - 2] = 0.0
-        ydot[NY - 1] = 0.0
-        return Fe, I, -1, 0.0, -1, 0.0, 0.0
+        return Fe, _source_current(par, rw, ydot, xd, V, Vd, vdot, sj, si, rs, NY), -1, 0.0, -1, 0.0, 0.0
     # the front layer (an effective material point) and its wakes (zipped just behind:
     # the zipped gap; unzipped just ahead: the band's mean gap), each with its own rates
     _point(par, law, lawp, Vd, W, qf, Pf, rw[IUF], rw[T0F], pt)
@@ -495,17 +504,8 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
         ydot[PA] += ra * (Psa - Pa) + rb * (Pb - Pa)     # P: from the zipped material (docstring)
         ydot[QB] += rb * (qsb - qb) + ra * (qf - qb)
         ydot[PB] += rb * (Psb - Pb) + ra * (Pf - Pb)
-    # the source current: motion of the gap, conduction and charging; behind R_s the
-    # device voltage's own equation, else the capacitive current of the input's ramp
-    rest = xd * (rw[J0] * Vd + rw[J1] * qf) + rw[I0] * Vd + rw[I1] * qz
-    if rs:
-        I = (V - Vd) / par[P_RS]
-        ydot[VD] = (I - rest) / rw[CAP]
-    else:
-        ydot[VD] = 0.0
-        I = rw[CAP] * vdot + rest
-    ydot[NY - 2] = 0.0
-    ydot[NY - 1] = 0.0
+    # the source current: the layer's charge moves with the gap, the zipped points' conducts
+    I = _source_current(par, rw, ydot, xd, V, Vd, vdot, rw[J1] * qf, rw[I1] * qz, rs, NY)
     return Fe, I, ka, ra, kb, rbs, fb
 
 
