@@ -54,7 +54,8 @@ State y (NY = NODE0 + 2 n + 2; a state the actuator does not have stays 0):
     NY - 2, NY - 1          the inputs V and F, states with a constant slope on each segment
 
 Steps: the Rosenbrock-W pair of Shampine's ode23s (L-stable, order 2, error at order 3),
-restarted at every input breakpoint; the stops at 0 and x_e are events. The Jacobian:
+restarted at every input breakpoint; the stops at 0 and x_e are events; a step moves the
+stroke by at most DX_STEP x_e. The Jacobian:
 forward differences in the core states (stroke, velocity, V_d, layer, inputs) and the
 points' own 2 x 2 blocks in closed form; the linear solves eliminate the points' blocks
 onto the core (the points couple only to the stroke, V_d and, through the renewal, the
@@ -89,6 +90,9 @@ NPAR = 22
 # q_i q_(i+1) weights, and the source current's conduction and motion weights of q_i
 LAT_C1, LAT_C2, LAT_C2O, LAT_IQ, LAT_JQ = range(5)
 NLAT = 5
+# the rows' last entry, one past the tables' columns (rw: tab.shape[1] + 1 entries): the
+# lattice form's first point with force weights (lattice_row; the ones before are zipped
+# over the whole stencil and their weights are exact zeros)
 # record columns
 R_T, R_X, R_V, R_QF, R_PF, R_VD, R_VOLT, R_F, R_I, R_FE = range(10)
 NREC = 10
@@ -99,6 +103,8 @@ FREE, HELD, AUTO = 0, 1, 2
 # from the mirrored state it was taken at, and the most half periods in a row
 JAC_TOL = 0.02
 JAC_USES = 50
+# the most an accepted step moves the stroke, as a share of x_e (_integrate)
+DX_STEP = 0.2
 # the kept Jacobian's record in integrate (js): taken at this step (not for reuse), times
 # reused in a row, number of active core columns, the input voltage it was taken at
 J_FRESH, J_USES, J_M, J_V = range(4)
@@ -141,27 +147,33 @@ def table_row(tab, xe, x, rw):
     for c in range(NFIX):
         rw[c] = _hermite(tab, i, c, f)
     # the material points' gaps enter only their own (slow) rates: linear pieces do
-    for c in range(NFIX, tab.shape[1]):
+    for k in range(tab.shape[1] - NFIX):
+        c = np.uint64(NFIX + k)       # unsigned: vectorized without gathers (_blend)
         rw[c] = tab[i, c] * (1.0 - f) + tab[i + 1, c] * f
 
 
 @njit(cache=True, _nrt=False, inline="always")
 def _blend(tab, rw, r0, r1, r2, r3, w0, w1, w2, w3, c0, c1):
     """rw[c] = w0 tab[r0, c] + w1 tab[r1, c] + w2 tab[r2, c] + w3 tab[r3, c] for c in
-    [c0, c1): one interpolation's weights for many columns (a branch-free loop)."""
-    for c in range(c0, c1):
+    [c0, c1): one interpolation's weights for many columns (a branch-free loop). The
+    column index is unsigned: a signed one is wrapped around when negative, and that
+    select made LLVM vectorize the loop with gathers and scatters (6x slower)."""
+    for k in range(c1 - c0):
+        c = np.uint64(c0 + k)
         rw[c] = w0 * tab[r0, c] + w1 * tab[r1, c] + w2 * tab[r2, c] + w3 * tab[r3, c]
 
 
 @njit(cache=True, _nrt=False)
-def lattice_row(tab, xe, x, rw, n, le, pol):
+def lattice_row(tab, xe, x, rw, n, le, pol, cur):
     """table_row for the lattice form: the force's weights (the points' charges' and
     polarizations') cubic Hermite like the fixed columns (the force's slope in x must
     not jump at the grid points: linear pieces there took 2.5x the steps), the gaps and
     the current's weights linear; a point whose hat is zipped over the whole Hermite
     stencil has no force weights (exact zeros in the tables), so only the unzipped
-    points are interpolated. The cubic Hermite with centred slopes is a fixed blend of
-    the rows i - 1 .. i + 2, its weights computed once for all columns."""
+    points are interpolated; their first, k0, goes into the row's last entry. cur: also
+    the current's weights (else left as they are: only the record and V_d's equation read
+    them, _lattice_current). The cubic Hermite with centred slopes is a fixed blend of the
+    rows i - 1 .. i + 2, its weights computed once for all columns."""
     i, f = _cell(tab, xe, x)
     for c in range(NFIX):
         rw[c] = _hermite(tab, i, c, f)
@@ -191,14 +203,16 @@ def lattice_row(tab, xe, x, rw, n, le, pol):
         wa -= h11
     # zipped over the stencil: s_(k+1) <= l_z at its least stroke (row rp)
     k0 = min(int(tab[rp, LZ] / (le / (n - 1))), n)
+    rw[rw.shape[0] - 1] = k0
     o = lat0(n)
     for base in (NFIX + n, NFIX + 2 * n, o + LAT_C1 * n, o + LAT_C2 * n, o + LAT_C2O * n):
         if base < o and not pol:
             continue          # no polarization branch: its weights are never read
         for k in range(k0):
-            rw[base + k] = 0.0
+            rw[np.uint64(base + k)] = 0.0
         _blend(tab, rw, rp, i, i + 1, rn, wp, wa, wb, wn, base + k0, base + n)
-    _blend(tab, rw, i, i + 1, i, i + 1, g, f, 0.0, 0.0, o + LAT_IQ * n, o + (LAT_JQ + 1) * n)
+    if cur:
+        _blend(tab, rw, i, i + 1, i, i + 1, g, f, 0.0, 0.0, o + LAT_IQ * n, o + (LAT_JQ + 1) * n)
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -250,7 +264,10 @@ def _point(par, law, lawp, Vd, W, q, P, iu, t0p, out):
 
 @njit(cache=True, _nrt=False, inline="always")
 def _zipped_mean(y, rw, par, n):
-    """The mean charge of the zipped material points (the layer's without any)."""
+    """The mean charge of the zipped material points (the layer's without any; 0 in the
+    lattice form, whose current does not read it)."""
+    if par[P_LAT] > 0.0:
+        return 0.0
     h = par[P_LE] / (n - 1) if n > 1 else 0.0
     qz = 0.0
     nz = 0
@@ -276,13 +293,16 @@ def _points(y, W, par, law, lawp, ydot, rw, pt, jn, n, NY):
         c = par[P_ITAUL] - itf
         ceV = c * par[P_EPSL] * Vd
         cT0 = c * t0
-        for i in range(n):
+        # unsigned indices: numba's wrap-around of negative ones drops out, the loop
+        # vectorizes (_blend)
+        for k in range(n):
+            i = np.uint64(k)
             iu = rw[NFIX + i]
-            a = -(cT0 * iu + itf)
-            ydot[NODE0 + i] = ceV * iu + a * y[NODE0 + i]
+            ydot[NODE0 + i] = ceV * iu + -(cT0 * iu + itf) * y[NODE0 + i]
             ydot[NODE0 + n + i] = 0.0
-            if store:
-                jn[i, 0], jn[i, 1], jn[i, 2], jn[i, 3] = a, 0.0, 0.0, 0.0
+        if store:
+            for i in range(n):
+                jn[i, 0], jn[i, 1], jn[i, 2], jn[i, 3] = -(cT0 * rw[NFIX + i] + itf), 0.0, 0.0, 0.0
         return _zipped_mean(y, rw, par, n)
     for i in range(n):
         _point(par, law, lawp, Vd, W, y[NODE0 + i], y[NODE0 + n + i], rw[NFIX + i], t0, pt)
@@ -332,7 +352,8 @@ def _charge_force(y, rw, n, Vd):
     weights (the full model's quadratic map read off at each stroke, frozen.lattice_tables)."""
     o = lat0(n)
     F = 0.0
-    for i in range(n):
+    # from the first point with weights (lattice_row's k0: the others add exact zeros)
+    for i in range(int(rw[rw.shape[0] - 1]), n):
         q = y[NODE0 + i]
         F += q * (rw[o + LAT_C1 * n + i] * Vd + rw[o + LAT_C2 * n + i] * q)
         if i + 1 < n:
@@ -355,6 +376,33 @@ def _charge_slopes(y, rw, n, Vd, rate, cq):
 
 
 @njit(cache=True, _nrt=False, inline="always")
+def _lattice_sums(y, rw, n):
+    """The lattice form's charge terms of the source current: (conduction, motion)."""
+    o = lat0(n)
+    sj = 0.0
+    si = 0.0
+    for i in range(n):
+        q = y[NODE0 + i]
+        si += rw[o + LAT_IQ * n + i] * q
+        sj += rw[o + LAT_JQ * n + i] * q
+    return si, sj
+
+
+@njit(cache=True, _nrt=False)
+def _lattice_current(tab, par, y, xd, vdot, rw, scratch, n, NY):
+    """The source current at y of the lattice form without R_s, its row rw (the maps at
+    y's stroke) but for the current's weights, which this fills in; xd the stroke's rate
+    (rhs with cur False leaves the current out: only the record reads it)."""
+    xe = par[P_XE]
+    i, f = _cell(tab, xe, min(max(y[X], 0.0), xe))
+    o = lat0(n)
+    _blend(tab, rw, i, i + 1, i, i + 1, 1.0 - f, f, 0.0, 0.0, o + LAT_IQ * n, o + (LAT_JQ + 1) * n)
+    si, sj = _lattice_sums(y, rw, n)
+    V = y[NY - 2]
+    return _source_current(par, rw, scratch, xd, V, V, vdot, sj, si, False, NY)
+
+
+@njit(cache=True, _nrt=False, inline="always")
 def _source_current(par, rw, ydot, xd, V, Vd, vdot, qmot, qcond, rs, NY):
     """The source current from the motion of the gap and the charges' conduction and
     charging (qmot, qcond: the charge states' terms of each); behind R_s the device
@@ -373,7 +421,7 @@ def _source_current(par, rw, ydot, xd, V, Vd, vdot, qmot, qcond, rs, NY):
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
+def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side, cur=True):
     """The core's rates (stroke, velocity, V_d, layer) into ydot at the maps' row rw, the
     zipped points' mean charge qz. Returns (force, source current, and the couplings of
     the wakes to their source points: (ka, ra) the ahead wake's point and rate; (kb, rb,
@@ -417,13 +465,13 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
         # the lattice form: every charge is a lattice point's (no layer, no wakes)
         for c in range(QF, SM + 1):
             ydot[c] = 0.0
-        o = lat0(n)
-        sj = 0.0
-        si = 0.0
-        for i in range(n):
-            q = y[NODE0 + i]
-            si += rw[o + LAT_IQ * n + i] * q
-            sj += rw[o + LAT_JQ * n + i] * q
+        if not (cur or rs):
+            # the current is not asked for and no state depends on it (cur: rhs)
+            ydot[VD] = 0.0
+            ydot[NY - 2] = 0.0
+            ydot[NY - 1] = 0.0
+            return Fe, math.nan, -1, 0.0, -1, 0.0, 0.0
+        si, sj = _lattice_sums(y, rw, n)
         return Fe, _source_current(par, rw, ydot, xd, V, Vd, vdot, sj, si, rs, NY), -1, 0.0, -1, 0.0, 0.0
     # the front layer (an effective material point) and its wakes (zipped just behind:
     # the zipped gap; unzipped just ahead: the band's mean gap), each with its own rates
@@ -510,22 +558,23 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side):
 
 
 @njit(cache=True, _nrt=False)
-def rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, jn, side=0.0):
+def rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, jn, side=0.0, cur=True):
     """dy/dt at y (the inputs' rows: 0, their slopes are set by the caller); W: the mean
     square drive in averaged mode, else ignored; vdot: the input voltage's slope (the
     capacitive current). mode FREE, HELD (the stroke rests on a stop) or AUTO (a stop
     holds it when the force pushes into it); jn: the points' 2 x 2 blocks are stored
-    there if it has a row per point. Returns (electrostatic force, source current, ka,
-    ra, kb, rb, fb: _core_rates)."""
+    there if it has a row per point; cur False: the lattice form without R_s leaves the
+    source current out (NaN; _lattice_current). Returns (electrostatic force, source
+    current, ka, ra, kb, rb, fb: _core_rates)."""
     xe = par[P_XE]
     n = int(par[P_N])
     if par[P_LAT] > 0.0:
-        lattice_row(tab, xe, min(max(y[X], 0.0), xe), rw, n, par[P_LE], par[P_CHI] > 0.0)
+        lattice_row(tab, xe, min(max(y[X], 0.0), xe), rw, n, par[P_LE], par[P_CHI] > 0.0, cur or par[P_RS] > 0.0)
     else:
         table_row(tab, xe, min(max(y[X], 0.0), xe), rw)
     NY = NODE0 + 2 * n + 2
     qz = _points(y, W, par, law, lawp, ydot, rw, pt, jn, n, NY)
-    return _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side)
+    return _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side, cur)
 
 
 @njit(cache=True, _nrt=False)
@@ -634,13 +683,16 @@ def _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, cq, r
     _couple(g, Jb, Bi, kb, rb * (1.0 - fb), QB, Mc, pos, m)
     _couple(g, Jb, Bi, kb + 1, rb * fb, QB, Mc, pos, m)
     if rf >= 0:
-        for i in range(n):
-            if cp[i] != 0.0:
-                for c in range(m):
-                    Mc[rf, c] -= g * g * cp[i] * (Bi[i, 2] * Jb[i, 0, c] + Bi[i, 3] * Jb[i, 1, c])
-            if cq[i] != 0.0:
-                for c in range(m):
-                    Mc[rf, c] -= g * g * cq[i] * (Bi[i, 0] * Jb[i, 0, c] + Bi[i, 1] * Jb[i, 1, c])
+        # accumulated in a register, column by column (the same sums in the same order: a
+        # running sum in Mc waited on its own store at every point)
+        for c in range(m):
+            acc = Mc[rf, c]
+            for i in range(n):
+                if cp[i] != 0.0:
+                    acc -= g * g * cp[i] * (Bi[i, 2] * Jb[i, 0, c] + Bi[i, 3] * Jb[i, 1, c])
+                if cq[i] != 0.0:
+                    acc -= g * g * cq[i] * (Bi[i, 0] * Jb[i, 0, c] + Bi[i, 1] * Jb[i, 1, c])
+            Mc[rf, c] = acc
     _lu(Mc, piv, m)
 
 
@@ -666,17 +718,25 @@ def _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, b, NY, rc, cl, pos, m, cp,
     _uncouple(g, Bi, kb, rb * (1.0 - fb), QB, b, n, rc, pos)    # sides, eliminated from
     _uncouple(g, Bi, kb + 1, rb * fb, QB, b, n, rc, pos)        # the wakes' rows
     if rf >= 0:                                       # and from the mechanics' row
+        acc = rc[rf]                                  # (in a register: _factor)
         for i in range(n):
             if cp[i] != 0.0:
-                rc[rf] += g * cp[i] * (Bi[i, 2] * b[NODE0 + i] + Bi[i, 3] * b[NODE0 + n + i])
+                acc += g * cp[i] * (Bi[i, 2] * b[NODE0 + i] + Bi[i, 3] * b[NODE0 + n + i])
             if cq[i] != 0.0:
-                rc[rf] += g * cq[i] * (Bi[i, 0] * b[NODE0 + i] + Bi[i, 1] * b[NODE0 + n + i])
+                acc += g * cq[i] * (Bi[i, 0] * b[NODE0 + i] + Bi[i, 1] * b[NODE0 + n + i])
+        rc[rf] = acc
     _lu_solve(Mc, piv, rc, m)
     for r in range(m):
         b[_state(cl[r], NY)] = rc[r]
     if not pol:
         # no polarization branch: the points' P rows and couplings are zero (their
         # entries of b stay 0), so each point's charge is a scalar equation
+        if m == 1:
+            # one active core state (the stroke, inputs constant): the loop below unrolled
+            r0, ng = rc[0], -g
+            for i in range(n):
+                b[NODE0 + i] = Bi[i, 0] * (b[NODE0 + i] - ng * Jb[i, 0, 0] * r0)
+            return
         for i in range(n):
             bq = b[NODE0 + i]
             for c in range(m):
@@ -715,12 +775,12 @@ def _jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, sc, xe
         yt[j] += dj
         moves = j == X or j == NY - 2 or j == VD
         if j == X:
-            rhs(yt, W, vd, tab, par, law, lawp, k1, rw, pt, mode, Jb0, side)
+            rhs(yt, W, vd, tab, par, law, lawp, k1, rw, pt, mode, Jb0, side, False)
         elif moves:
             qzj = _points(yt, W, par, law, lawp, k1, rw0, pt, Jb0, n, NY)
-            _core_rates(yt, W, vd, par, law, lawp, k1, rw0, pt, mode, qzj, NY, side)
+            _core_rates(yt, W, vd, par, law, lawp, k1, rw0, pt, mode, qzj, NY, side, False)
         else:
-            _core_rates(yt, W, vd, par, law, lawp, k1, rw0, pt, mode, qz0, NY, side)
+            _core_rates(yt, W, vd, par, law, lawp, k1, rw0, pt, mode, qz0, NY, side, False)
         for ri in range(m):
             r = _state(cl[ri], NY)
             Jc[ri, ci] = (k1[r] - ft[r]) / dj if r < NY - 2 else 0.0
@@ -829,8 +889,8 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
             fb, Jb0, n, Mc, piv, Bi, NY, rc, cl, pos, m, cp, cq, rf, Jn2, vs_k, fs_k, active, rtol, sc):
     """One Rosenbrock-W step of size hs from y (F0 = f(y); the matrix I - g J factored):
     the three stages of ode23s and the scaled error of the embedded pair. yt receives the
-    new state, F2 f there. Returns (error, and rhs's results at yt: force, current and the
-    wakes' couplings)."""
+    new state, F2 f there. Returns (error, and rhs's results at yt: force, current (NaN in
+    the lattice form without R_s: _lattice_current) and the wakes' couplings)."""
     d_e32 = 6.0 + math.sqrt(2.0)
     pol = par[P_CHI] > 0.0
     for i in range(NY):
@@ -838,7 +898,7 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, cq, rf, pol)
     for i in range(NY):
         yt[i] = y[i] + 0.5 * hs * k1[i]
-    rhs(yt, W, vd, tab, par, law, lawp, F1, rw, pt, mode, Jb0, side)
+    rhs(yt, W, vd, tab, par, law, lawp, F1, rw, pt, mode, Jb0, side, False)
     F1[NY - 2] = vs_k
     F1[NY - 1] = fs_k
     for i in range(NY):
@@ -847,7 +907,7 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     for i in range(NY):
         k2[i] += k1[i]
         yt[i] = y[i] + hs * k2[i]
-    Fe2, I2, ka2, ra2, kb2, rb2, fb2 = rhs(yt, W, vd, tab, par, law, lawp, F2, rw, pt, mode, Jn2, side)
+    Fe2, I2, ka2, ra2, kb2, rb2, fb2 = rhs(yt, W, vd, tab, par, law, lawp, F2, rw, pt, mode, Jn2, side, False)
     F2[NY - 2] = vs_k
     F2[NY - 1] = fs_k
     for i in range(NY):
@@ -953,7 +1013,8 @@ def _step_jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, s
 @njit(cache=True, _nrt=False)
 def _carry(ft, F2, Jn, Jn2, rw0, rw, n, NY):
     """First same as last: the accepted step's last stage (f, the points' blocks, the
-    maps' row) is the next step's start."""
+    maps' row) is the next step's start. Copied: swapping the arrays instead slowed every
+    step by a third (numba's code for arrays reassigned in the loop)."""
     for i in range(NY - 2):
         ft[i] = F2[i]
     for i in range(n):
@@ -964,7 +1025,36 @@ def _carry(ft, F2, Jn, Jn2, rw0, rw, n, NY):
 
 
 @njit(cache=True)
+def _workspace(tab, par):
+    """integrate's arrays, allocated once (pi_loop keeps them across its samples)."""
+    n = int(par[P_N])
+    NY = NODE0 + 2 * n + 2
+    nb = max(n, 1)
+    return (np.empty(NY), np.empty(NY), np.empty(NY), np.empty(NY), np.empty(NY), np.empty(NY), np.empty(NY),
+            np.empty(NY),                                          # F0, F1, F2, k1, k2, k3, yt, ft
+            np.empty(tab.shape[1] + 1), np.empty(tab.shape[1] + 1),  # rw, rw0 (+ 1: lattice_row's k0)
+            np.empty(6), np.empty((0, 4)),       # pt; Jb0: "do not store the points' blocks"
+            np.zeros((NCORE, NCORE)),            # Jc: the active core slots' rows x columns (compressed)
+            np.zeros((nb, 2, NCORE)),            # Jb: the points' rows x the active core columns
+            np.zeros((nb, 4)), np.zeros((nb, 4)),  # Jn, Jn2: the points' own 2 x 2 blocks at the step's start, end
+            np.empty((NCORE, NCORE)), np.empty((nb, 4)),  # Mc, Bi
+            np.empty(NCORE, dtype=np.int64), np.empty(NCORE),  # piv, rc
+            np.empty(NCORE, dtype=np.int64),     # cl: the active core slots
+            np.empty(NCORE, dtype=np.int64),     # pos: slot -> its place among them (-1: inactive)
+            np.zeros(nb), np.zeros(nb),          # cp, cq: the mechanics' row's answer to each point's P, charge
+            _active_states(par, n, NY), np.zeros(NY), np.empty(NCORE, dtype=np.int64),   # active, yJ, clJ
+            np.empty(4))                         # js: the kept Jacobian
+
+
+@njit(cache=True)
 def integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps):
+    """_integrate with a workspace of its own (its docstring)."""
+    return _integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps,
+                      _workspace(tab, par))
+
+
+@njit(cache=True)
+def _integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps, ws):
     """Integrate over the input segments [tb[k], tb[k+1]] (voltage v0[k] + vs[k] (t - tb[k]),
     force likewise; in averaged mode (par[P_AVG]) w2[k] >= 0 is the segment's mean square
     voltage, the period mean <V> its voltage, and w2[k] < 0 a segment stepped as it is).
@@ -979,38 +1069,29 @@ def integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0
     clipped to the stops (_clip) and recorded."""
     n = int(par[P_N])
     NY = NODE0 + 2 * n + 2
-    nb = max(n, 1)
     y = y0.copy()
-    F0, F1, F2, k1, k2, k3, yt, ft = (np.empty(NY), np.empty(NY), np.empty(NY), np.empty(NY), np.empty(NY),
-                                      np.empty(NY), np.empty(NY), np.empty(NY))
-    rw, rw0, pt = np.empty(tab.shape[1]), np.empty(tab.shape[1]), np.empty(6)
-    Jb0 = np.empty((0, 4))             # "do not store the points' blocks"
-    Jc = np.zeros((NCORE, NCORE))      # the active core slots' rows x columns (compressed)
-    Jb = np.zeros((nb, 2, NCORE))      # the points' rows x the active core columns
-    Jn = np.zeros((nb, 4))             # the points' own 2 x 2 blocks at the step's start
-    Jn2 = np.zeros((nb, 4))            # ... at its end (reused by the next step)
-    Mc, Bi, piv, rc = np.empty((NCORE, NCORE)), np.empty((nb, 4)), np.empty(NCORE, dtype=np.int64), np.empty(NCORE)
-    cl = np.empty(NCORE, dtype=np.int64)   # the active core slots
-    pos = np.empty(NCORE, dtype=np.int64)  # slot -> its place among them (-1: inactive)
-    cp = np.zeros(nb)                      # the mechanics' row's answer to each point's P
-    cq = np.zeros(nb)                      # ... and to each point's charge (the lattice form)
+    (F0, F1, F2, k1, k2, k3, yt, ft, rw, rw0, pt, Jb0, Jc, Jb, Jn, Jn2, Mc, Bi, piv, rc, cl, pos, cp, cq, active, yJ,
+     clJ, js) = ws
     pol_force = par[P_CHI] > 0.0 and n >= 2
     lat = par[P_LAT] > 0.0
     nrec = rec.shape[0]
     xe = par[P_XE]
     d = 1.0 / (2.0 + math.sqrt(2.0))
-    active = _active_states(par, n, NY)
-    yJ, clJ = np.zeros(NY), np.empty(NCORE, dtype=np.int64)
-    js = np.array([1.0, 0.0, -1.0, 0.0])   # the kept Jacobian: [fresh, uses, m, V]
+    js[J_FRESH], js[J_USES], js[J_M], js[J_V] = 1.0, 0.0, -1.0, 0.0   # the kept Jacobian: none
     steps = 0
     mode = np.int64(FREE)   # typed as on_stop returns it (a literal 0 failed to unify in some builds)
     side = 0.0          # the renewal takes the side the front moves to (rhs's side argument: 0)
     h = h0
     y[NY - 2] = v0[0]
     y[NY - 1] = f0[0]
-    Fe, I, ka, ra, kb, rb, fb = rhs(y, w2[0], vs[0], tab, par, law, lawp, F0, rw, pt, AUTO, Jb0)
+    Fe, I, ka, ra, kb, rb, fb = rhs(y, w2[0], vs[0], tab, par, law, lawp, ft, rw, pt, AUTO, Jn)
     _record(rec, 0, tb[0], y, I, Fe, NY)
     row = 1
+    # inside the stops (AUTO is FREE there) the start's rates, blocks and row serve the first step
+    have0 = 0.0 < y[X] < xe and gof[0, 0] == 0.0
+    if have0:
+        for c in range(rw.shape[0]):
+            rw0[c] = rw[c]
     for seg in range(len(v0)):
         t, t_end = tb[seg], tb[seg + 1]
         y[NY - 2], y[NY - 1] = v0[seg], f0[seg]
@@ -1019,7 +1100,7 @@ def integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0
             _phase_offset(y, gof[seg, 0], gof[seg, 1], tab, par, law, lawp, k1, k2, yt, rw, pt, NY, Jb0)
         m = _columns(active, vs[seg], fs[seg], pos, cl)
         F0[NY - 2], F0[NY - 1] = vs[seg], fs[seg]
-        have = False        # ft, Jn, rw0 and the couplings hold f at y (free): the last stage's
+        have = have0 and seg == 0   # ft, Jn, rw0 and the couplings hold f at y (free): the last stage's
         while t < t_end - 1e-13 * max(abs(t_end), 1.0):
             if steps >= max_steps:
                 return MAX_STEPS, row, steps, y
@@ -1030,7 +1111,7 @@ def integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0
                 last = True
             mode = on_stop(y, W, tab, par, law, lawp, ft, rw, pt, Jb0)
             if not (have and mode == FREE):
-                Fe, I, ka, ra, kb, rb, fb = rhs(y, W, vd, tab, par, law, lawp, ft, rw, pt, mode, Jn, side)
+                Fe, I, ka, ra, kb, rb, fb = rhs(y, W, vd, tab, par, law, lawp, ft, rw, pt, mode, Jn, side, False)
                 for c in range(rw.shape[0]):
                     rw0[c] = rw[c]
             for i in range(NY - 2):
@@ -1063,6 +1144,11 @@ def integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0
                                                                 active, rtol, sc)
                 if not (err == err):
                     return NONFINITE, row, steps, y
+                # a step moves the stroke by at most DX_STEP x_e, on the error's scale (cubed,
+                # as the controller's exponent): across a snap the order-3 estimate passed a
+                # step that overshot (Table 1, 5 -> 6 kV after charging, rtol 3e-4: one step
+                # of 14 ms from 309 to 1495 um, the full model peaking at 1106)
+                err = max(err, (abs(yt[X] - y[X]) / (DX_STEP * xe)) ** 3)
                 if err <= 1.0:
                     shorter = _to_stop(y[X], yt[X], xe, hs, tries)
                     if shorter == 0.0:
@@ -1092,14 +1178,16 @@ def integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0
             # the last stage is f at the new state: the next step's start (first same as
             # last), unless the inputs moved (a breakpoint), a stop clipped it or held it
             have = not (clipped or last or mode == HELD)
+            if have or (not clipped and mode == FREE and vs[seg] == 0.0 and fs[seg] == 0.0):
+                # the last stage is at y (have; or a breakpoint of constant inputs)
+                Fe, I = Fe2, I2
+                if lat and I != I:
+                    I = _lattice_current(tab, par, yt, F2[X], vd, rw, k1, n, NY)
+            else:
+                Fe, I, _, _, _, _, _ = rhs(y, W, vd, tab, par, law, lawp, k1, rw, pt, AUTO, Jb0)
             if have:
                 _carry(ft, F2, Jn, Jn2, rw0, rw, n, NY)
                 ka, ra, kb, rb, fb = ka2, ra2, kb2, rb2, fb2
-                Fe, I = Fe2, I2
-            elif not clipped and mode == FREE and vs[seg] == 0.0 and fs[seg] == 0.0:
-                Fe, I = Fe2, I2     # a breakpoint of constant inputs: the last stage is at y
-            else:
-                Fe, I, _, _, _, _, _ = rhs(y, W, vd, tab, par, law, lawp, k1, rw, pt, AUTO, Jb0)
             _record(rec, row, t, y, I, Fe, NY)
             row += 1
             h_new = hs * grow_factor(err)
@@ -1139,7 +1227,7 @@ def _record(rec, row, t, y, I, Fe, NY):
 @njit(cache=True)
 def evaluate(y, W, vdot, tab, par, law, lawp, ydot, mode):
     """rhs for callers outside the integrator (python-control): returns (force, current)."""
-    rw = np.empty(tab.shape[1])
+    rw = np.empty(tab.shape[1] + 1)        # + 1: lattice_row's k0
     pt = np.empty(6)
     Fe, I, _, _, _, _, _ = rhs(y, W, vdot, tab, par, law, lawp, ydot, rw, pt, mode, np.empty((0, 4)))
     return Fe, I
@@ -1154,7 +1242,8 @@ def pi_loop(y0, tab, par, law, lawp, sc, rtol, ctl, n, half, max_steps, out):
     every `half` steps; half = 0: DC) and the force F over [k dt, (k + 1) dt]; n steps,
     n + 1 reads (the last: no step after it).
     ctl = [x_ref, kp, ki, v_ff, v_max, dt, F]. out[k] = (t_k, x_k, A_k, V_k, I_k): the
-    stroke and the source current read at the step's start. Returns (status, steps taken by the loop, integrator steps, y)."""
+    stroke and the source current read at the step's start. Returns (status, steps taken by
+    the loop, integrator steps, y). One workspace serves every sample (_workspace)."""
     n_ = int(par[P_N])
     NY = NODE0 + 2 * n_ + 2
     x_ref, kp, ki, v_ff, v_max, dt, F = ctl[0], ctl[1], ctl[2], ctl[3], ctl[4], ctl[5], ctl[6]
@@ -1166,6 +1255,7 @@ def pi_loop(y0, tab, par, law, lawp, sc, rtol, ctl, n, half, max_steps, out):
     w2 = np.empty(1)
     gof = np.zeros((1, 2))
     rec = np.empty((4096, NREC))
+    ws = _workspace(tab, par)
     y = y0.copy()
     acc = 0.0
     total = 0
@@ -1198,8 +1288,8 @@ def pi_loop(y0, tab, par, law, lawp, sc, rtol, ctl, n, half, max_steps, out):
         tb[0], tb[1] = k * dt, (k + 1) * dt
         v0[0], f0[0], w2[0] = V, F, V * V
         y[NY - 2], y[NY - 1] = V, F
-        status, rows, steps, y = integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0, rec,
-                                           max_steps)
+        status, rows, steps, y = _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0, rec,
+                                            max_steps, ws)
         total += steps
         if status != OK:
             return status, k, total, y
