@@ -142,6 +142,10 @@ def test_cli_reduce_compare_and_hold_chain(tmp_path, capsys):
     assert main(["hold", "--preset", "vshape-table1", "--model", str(path), "--stroke", "0.8e-3", "--force", "4",
                  "--duration", "5"]) == 0
     assert "lattice" in capsys.readouterr().out
+    # dfa hold (and design) fit a lattice themselves when asked for the family
+    assert main(["hold", "--preset", "vshape-table1", "--family", "lattice", "--stroke", "0.8e-3", "--force", "4",
+                 "--duration", "5"]) == 0
+    assert "tuned on the lattice surrogate" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("name", ["vshape-table1", "peano-fig10"])
