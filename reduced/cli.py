@@ -30,7 +30,7 @@ def register_reduce(sub) -> None:
     base._add_params_flags(pr)
     pr.add_argument("--family", choices=["charge", "lattice", "lumped"], default="charge",
                     help="charge: reduced charge dynamics (default); lattice: a material point at every node "
-                         "of the full model (the most faithful, 4-5x faster than it); lumped: the equivalent "
+                         "of the full model (the most faithful, about 7x faster than it); lumped: the equivalent "
                          "circuit")
     pr.add_argument("--out", metavar="MODEL.json", required=True)
     pr.add_argument("--workers", type=base._number(1, 1024, integer=True), help="local processes (default: all cores)")
