@@ -212,7 +212,15 @@ def lattice_row(tab, xe, x, rw, n, le, pol, cur):
             rw[np.uint64(base + k)] = 0.0
         _blend(tab, rw, rp, i, i + 1, rn, wp, wa, wb, wn, base + k0, base + n)
     if cur:
-        _blend(tab, rw, i, i + 1, i, i + 1, g, f, 0.0, 0.0, o + LAT_IQ * n, o + (LAT_JQ + 1) * n)
+        _current_weights(tab, rw, i, f, n)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _current_weights(tab, rw, i, f, n):
+    """The lattice form's current weights (conduction and motion of each point's charge),
+    linear at fraction f of grid interval i."""
+    o = lat0(n)
+    _blend(tab, rw, i, i + 1, i, i + 1, 1.0 - f, f, 0.0, 0.0, o + LAT_IQ * n, o + (LAT_JQ + 1) * n)
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -298,11 +306,11 @@ def _points(y, W, par, law, lawp, ydot, rw, pt, jn, n, NY):
         for k in range(n):
             i = np.uint64(k)
             iu = rw[NFIX + i]
-            ydot[NODE0 + i] = ceV * iu + -(cT0 * iu + itf) * y[NODE0 + i]
+            a = -(cT0 * iu + itf)
+            ydot[NODE0 + i] = ceV * iu + a * y[NODE0 + i]
             ydot[NODE0 + n + i] = 0.0
-        if store:
-            for i in range(n):
-                jn[i, 0], jn[i, 1], jn[i, 2], jn[i, 3] = -(cT0 * rw[NFIX + i] + itf), 0.0, 0.0, 0.0
+            if store:
+                jn[i, 0], jn[i, 1], jn[i, 2], jn[i, 3] = a, 0.0, 0.0, 0.0
         return _zipped_mean(y, rw, par, n)
     for i in range(n):
         _point(par, law, lawp, Vd, W, y[NODE0 + i], y[NODE0 + n + i], rw[NFIX + i], t0, pt)
@@ -395,8 +403,7 @@ def _lattice_current(tab, par, y, xd, vdot, rw, scratch, n, NY):
     (rhs with cur False leaves the current out: only the record reads it)."""
     xe = par[P_XE]
     i, f = _cell(tab, xe, min(max(y[X], 0.0), xe))
-    o = lat0(n)
-    _blend(tab, rw, i, i + 1, i, i + 1, 1.0 - f, f, 0.0, 0.0, o + LAT_IQ * n, o + (LAT_JQ + 1) * n)
+    _current_weights(tab, rw, i, f, n)
     si, sj = _lattice_sums(y, rw, n)
     V = y[NY - 2]
     return _source_current(par, rw, scratch, xd, V, V, vdot, sj, si, False, NY)
@@ -1084,14 +1091,11 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h
     h = h0
     y[NY - 2] = v0[0]
     y[NY - 1] = f0[0]
-    Fe, I, ka, ra, kb, rb, fb = rhs(y, w2[0], vs[0], tab, par, law, lawp, ft, rw, pt, AUTO, Jn)
+    Fe, I, ka, ra, kb, rb, fb = rhs(y, w2[0], vs[0], tab, par, law, lawp, ft, rw0, pt, AUTO, Jn)
     _record(rec, 0, tb[0], y, I, Fe, NY)
     row = 1
     # inside the stops (AUTO is FREE there) the start's rates, blocks and row serve the first step
     have0 = 0.0 < y[X] < xe and gof[0, 0] == 0.0
-    if have0:
-        for c in range(rw.shape[0]):
-            rw0[c] = rw[c]
     for seg in range(len(v0)):
         t, t_end = tb[seg], tb[seg + 1]
         y[NY - 2], y[NY - 1] = v0[seg], f0[seg]
