@@ -428,7 +428,7 @@ def simulate_hold_surrogate(s, controller: HoldController | float, x_ref: float 
     an open-loop amplitude (V) with `mode` and `frequency`. F: a constant load (N); a
     load that varies in time needs simulate_hold's Python loop on the full model."""
     from dfa_model.numerics import surrogate_kernel as sk
-    from .surrogate import SurrogateError
+    from .surrogate import RTOL, SurrogateError
     if isinstance(controller, HoldController):
         c = controller
         x_ref = c.x_ref if x_ref is None else float(x_ref)
@@ -452,7 +452,7 @@ def simulate_hold_surrogate(s, controller: HoldController | float, x_ref: float 
     out = np.empty((n + 1, 5))
     wall = time.perf_counter()
     status, k, steps, y = sk.pi_loop(np.zeros(s.ny), s.tables, s.par(), s._law, s._lawp, s.scales(max(v_ff, v_max)),
-                                     float(rtol or s.rtol), ctl, int(n), int(half), int(1_000_000), out)
+                                     float(rtol or RTOL), ctl, int(n), int(half), int(1_000_000), out)
     wall = time.perf_counter() - wall
     if status != sk.OK:
         raise SurrogateError(f"surrogate hold stopped at t = {k * dt:g} s (integrator status {status})")

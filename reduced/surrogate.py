@@ -166,7 +166,10 @@ class Surrogate:
     # ------------------------------------------------------------------ structure
     @property
     def rtol(self) -> float:
-        """The compiled path's default tolerance (RTOL; the lattice family's RTOL_LATTICE)."""
+        """simulate's default tolerance (RTOL; the lattice family's RTOL_LATTICE). The
+        sampled paths (the compiled hold, system(dt)) take a step or two per sample whatever
+        the tolerance, and keep RTOL: at RTOL_LATTICE a random Peano's 10 Hz hold tracked
+        at 1.19x the full model's RMS, at RTOL 1.00x, in the same time."""
         return RTOL_LATTICE if self.lattice else RTOL
 
     @property
@@ -541,7 +544,7 @@ class Surrogate:
             while True:
                 status, rows, _, y_end = sk.integrate(seg["tb"], seg["v0"], seg["vs"], seg["f0"], seg["fs"],
                                                       seg["w2"], gof, y, self.tables, par, self._law, self._lawp,
-                                                      sc, self.rtol, dt, state["rec"], limits.MAX_STEPS)
+                                                      sc, RTOL, dt, state["rec"], limits.MAX_STEPS)
                 if status == sk.FULL and state["rec"].shape[0] < 1 << 20:
                     state["rec"] = np.empty((4 * state["rec"].shape[0], sk.NREC))
                     continue
