@@ -305,7 +305,9 @@ class Surrogate:
         (averaged.py), else None. `inversions`: 'average' (default) integrates a stage of
         fast full-duty polarity inversion cycle-averaged but for its last periods
         (fast_inversions: where the period is under 1 % of every electrical time constant;
-        the result's averaged_windows lists where), 'step' steps every inversion."""
+        the result's averaged_windows lists where), 'step' steps every inversion. `rtol`:
+        the stroke's local error bound per step, rtol (x + x_e); None: the family's
+        (Surrogate.rtol: 1e-4, the lattice's 5e-4)."""
         if not isinstance(protocol, Protocol):
             if duration is None:
                 raise ValueError("duration: required when the protocol is a plain voltage or waveform")
