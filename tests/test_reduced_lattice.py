@@ -159,8 +159,6 @@ def test_files_python_control_and_errors(lat, tmp_path):
     assert control.dcgain(lin)[0, 0] == pytest.approx((x[1] - x[0]) / 20.0, rel=0.03)
     with pytest.raises(ValueError, match="scheme"):
         reduced.lattice(preset("vshape-table1").replace(scheme="continuum-p0"))
-    with pytest.raises(ValueError, match="N <= 201"):
-        reduced.lattice(preset("peano-fig10"))          # N = 401: a state per node
 
 
 def test_cli_reduce_compare_and_hold_chain(tmp_path, capsys):
@@ -209,6 +207,28 @@ def test_force_weights_are_the_full_models(name):
             y[nb + i + 1] = qs
             pair = c2 + tab[k, o + n + i + 1] * qs * qs + 2.0 * tab[k, o + 2 * n + i] * qs * qs
             assert pair == pytest.approx(m.electrostatic_force(y, 0.0), rel=1e-3, abs=1e-7 * f0)
+
+
+def test_above_the_largest_lattice_the_points_are_a_coarser_lattice():
+    """The Peano-HASEL preset runs at N = 401; a state per node stops at N = 201
+    (frozen.LATTICE_N_MAX), so its points are the nodes of the same actuator at N = 201,
+    while compare runs the full model at 401. A voltage step and a telegraph signal within
+    0.5 % of range, the drift with its sign."""
+    p = preset("peano-fig10")
+    s = reduced.lattice(p)
+    assert p.N == 401 and s.params.N == 401 and s.n_points == 201 and s.n_states == 202
+    assert "N = 201" in s.info["source"]
+    rng = np.random.default_rng(3)
+    n = 40
+    signs = np.where(rng.random(n) < 0.5, -1.0, 1.0)
+    t = np.repeat(np.arange(n) * 0.1, 2)[1:]
+    v = np.repeat(signs * 6000.0, 2)[:-1]
+    telegraph = Protocol([Stage(Sampled(np.append(t, n * 0.1), np.append(v, v[-1]), hold=True), n * 0.1, "hold")])
+    step = Protocol([Stage(DC(4800.0), 4, "s1"), Stage(DC(6600.0), 6, "hold")])
+    for proto in (step, telegraph):
+        c = compare(s, proto, 4.0)
+        assert c["relative_rms_error"] <= 0.005
+        assert _drift_ok(c), (c["drift_full"], c["drift_reduced"])
 
 
 def test_a_loose_tolerance_does_not_overshoot_a_snap():
