@@ -19,8 +19,11 @@ A stage is averaged when all of these hold (else it is stepped as it is):
     would leave open);
   - the ramps take at most RAMP_SHARE of the period;
   - the period is at most RATE_SHARE of the fastest electrical time constant of the
-    zipped device at the stage's mean square voltage (the charges', the polarization
-    branch's, the device voltage's behind R_s: the held Jacobian's diagonal);
+    zipped device at the stage's mean square voltage (the charges', the device voltage's
+    behind R_s: the held Jacobian's diagonal), and at most P_RATE_SHARE of the
+    polarization branch's (tau_p: a relaxation the field drives, its period mean exact to
+    O((T / tau_p)^2) like the charges', and no slow material state of its own that the
+    stroke's ripple could move);
   - it holds at least N_TAIL + MIN_AVERAGED whole periods;
   - at the stage's start (known only during the run: run() splits it there) every
     charge and polarization is below RIPPLE_SHARE of the charge whose V q force equals
@@ -46,6 +49,13 @@ from dfa_model.waveforms import Bipolar, Piecewise, Protocol, merge, period_mean
 N_TAIL = 4            # periods stepped as they are at the end of an averaged stage (averaged.N_TAIL)
 MIN_AVERAGED = 4      # fewer averaged periods than this are not worth the window's two offsets
 RATE_SHARE = 0.01     # period / fastest electrical time constant at most
+# ... / the polarization branch's time constant at most. At 0.01 every reset of a branch
+# with tau_p <= 3.3 s was stepped (the lattice with the branch: 245 steps on the standard
+# protocol, dfa compare 4.2). At 0.05, against the stepped run (both families; Table 1 and
+# Fig. 10a at N = 161 with tau_p 1 s, Table 1 with 0.7 s, a non-preset V-shape with 1.5 s;
+# resets + DC at 6 and 7 kV, 30 Hz for 10 s, 25 Hz from phase 0): at most 0.036 % of range
+# apart, 4-80x fewer steps (docs/guide/surrogates.md)
+P_RATE_SHARE = 0.05
 RIPPLE_SHARE = 0.002  # the charges' V q force over the V^2 force at the window's start at most
 RAMP_SHARE = 0.01     # the ramps' share of the period at most
 
@@ -53,9 +63,14 @@ RAMP_SHARE = 0.01     # the ramps' share of the period at most
 def fastest_rate(s, W: float) -> float:
     """The largest |d(rate)/d(state)| over the electrical states (charges, polarizations,
     V_d) of surrogate s held zipped (x = x_e, uncharged) in averaged mode at the mean
-    square voltage W (1/s): one over the fastest electrical time constant. Held zipped
-    the material points are alike: the first stands for them all. Kept on the surrogate
-    per W (rebuilt when its parameters were replaced)."""
+    square voltage W (1/s): one over the fastest electrical time constant."""
+    return max(rates(s, W))
+
+
+def rates(s, W: float) -> tuple[float, float]:
+    """fastest_rate over the charges and V_d, and over the polarizations (0 without the
+    branch). Held zipped the material points are alike: the first stands for them all.
+    Kept on the surrogate per W (rebuilt when its parameters were replaced)."""
     memo = s.__dict__.setdefault("_rates", {})
     hit = memo.get(W)
     if hit is not None and hit[0] is s.params:
@@ -70,7 +85,7 @@ def fastest_rate(s, W: float) -> float:
     sk.evaluate(y, W, 0.0, s.tables, par, s._law, s._lawp, base, sk.HELD)
     sc = s.scales(max(math.sqrt(W), 100.0))
     pos = dict(s._names)
-    fastest = 0.0
+    fastest = [0.0, 0.0]
     for name in ("V_d", "q_f", "P_f", "q_b", "P_b", "q_a", "P_a", "q_1", "P_1"):
         i = pos.get(name)
         if i is None:
@@ -79,11 +94,12 @@ def fastest_rate(s, W: float) -> float:
         yp = y.copy()
         yp[i] += h
         sk.evaluate(yp, W, 0.0, s.tables, par, s._law, s._lawp, up, sk.HELD)
-        fastest = max(fastest, abs(up[i] - base[i]) / h)
+        k = 1 if name[0] == "P" else 0
+        fastest[k] = max(fastest[k], abs(up[i] - base[i]) / h)
     if len(memo) > 16:
         memo.clear()
-    memo[W] = (s.params, fastest)
-    return fastest
+    memo[W] = (s.params, (fastest[0], fastest[1]))
+    return fastest[0], fastest[1]
 
 
 def _averaged_span(s, stage):
@@ -101,7 +117,8 @@ def _averaged_span(s, stage):
     if w.positive_share != 0.5:
         return None
     vm, W, g0 = period_means(w)
-    if T * fastest_rate(s, W) > RATE_SHARE:
+    r_q, r_P = rates(s, W)
+    if T * r_q > RATE_SHARE or T * r_P > P_RATE_SHARE:
         return None
     return n - N_TAIL, vm, W, g0
 
