@@ -37,6 +37,15 @@ def _drift_ok(c):
     return abs(r - f) <= max(1e-6, 0.2 * abs(f)) and (abs(f) < 1e-6 or np.sign(r) == np.sign(f))
 
 
+def _telegraph(n, seed, V=6000.0):
+    """Random polarity: n holds of 0.1 s at +-V, signs drawn from seed."""
+    rng = np.random.default_rng(seed)
+    signs = np.where(rng.random(n) < 0.5, -1.0, 1.0)
+    t = np.repeat(np.arange(n) * 0.1, 2)[1:]
+    v = np.repeat(signs * V, 2)[:-1]
+    return Protocol([Stage(Sampled(np.append(t, n * 0.1), np.append(v, v[-1]), hold=True), n * 0.1, "hold")])
+
+
 def test_statics_are_the_full_models(lat):
     """Uncharged, the lattice's force is the full model's quadratic map at every node:
     the equilibrium stroke is the full model's (the maps' cubic interpolation in x)."""
@@ -60,12 +69,7 @@ def test_random_polarity_and_slow_inversion_drift(lat):
     """Breakdowns 3 and 6: the drift of a telegraph signal (the overshoot after its last
     switch) and of 0.3 Hz inversion, set by how far the front sweeps into material it
     released a moment before - 20-100 % off or of the wrong sign in the charge family."""
-    rng = np.random.default_rng(11)
-    n = 100
-    signs = np.where(rng.random(n) < 0.5, -1.0, 1.0)
-    t = np.repeat(np.arange(n) * 0.1, 2)[1:]
-    v = np.repeat(signs * 6000.0, 2)[:-1]
-    telegraph = Protocol([Stage(Sampled(np.append(t, n * 0.1), np.append(v, v[-1]), hold=True), n * 0.1, "hold")])
+    telegraph = _telegraph(100, 11)
     slow = Protocol([Stage(Bipolar(6000.0, 0.3, phase="balanced"), 60, "hold")])
     for proto in (telegraph, slow):
         c = compare(lat, proto, 4.0)
@@ -80,12 +84,7 @@ def test_the_default_tolerance_stays_near_a_converged_run(lat):
     range (a quarter of the goal) of the same lattice at rtol 1e-7."""
     from reduced.surrogate import RTOL, RTOL_LATTICE
     assert lat.rtol == RTOL_LATTICE > RTOL
-    rng = np.random.default_rng(5)
-    n = 60
-    signs = np.where(rng.random(n) < 0.5, -1.0, 1.0)
-    t = np.repeat(np.arange(n) * 0.1, 2)[1:]
-    v = np.repeat(signs * 6000.0, 2)[:-1]
-    telegraph = Protocol([Stage(Sampled(np.append(t, n * 0.1), np.append(v, v[-1]), hold=True), n * 0.1, "hold")])
+    telegraph = _telegraph(60, 5)
     for proto in (Protocol.reset_then_hold(6000.0, 10.0), telegraph, Protocol.single(Bipolar(6000.0, 10.0, 0.4), 4.0)):
         a, b = lat.simulate(proto, 4.0), lat.simulate(proto, 4.0, rtol=1e-7)
         tt = np.linspace(0.0, b.t[-1], 20001)
@@ -218,12 +217,7 @@ def test_above_the_largest_lattice_the_points_are_a_coarser_lattice():
     s = reduced.lattice(p)
     assert p.N == 401 and s.params.N == 401 and s.n_points == 201 and s.n_states == 202
     assert "N = 201" in s.info["source"]
-    rng = np.random.default_rng(3)
-    n = 40
-    signs = np.where(rng.random(n) < 0.5, -1.0, 1.0)
-    t = np.repeat(np.arange(n) * 0.1, 2)[1:]
-    v = np.repeat(signs * 6000.0, 2)[:-1]
-    telegraph = Protocol([Stage(Sampled(np.append(t, n * 0.1), np.append(v, v[-1]), hold=True), n * 0.1, "hold")])
+    telegraph = _telegraph(40, 3)
     step = Protocol([Stage(DC(4800.0), 4, "s1"), Stage(DC(6600.0), 6, "hold")])
     for proto in (step, telegraph):
         c = compare(s, proto, 4.0)

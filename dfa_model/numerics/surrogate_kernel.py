@@ -922,7 +922,8 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     the lattice form without R_s: _lattice_current) and the wakes' couplings)."""
     d_e32 = 6.0 + math.sqrt(2.0)
     pol = par[P_CHI] > 0.0
-    # the vectors over the states that move (_span) and the two inputs
+    # the vectors over the states that move (_span) and the two inputs, each in two plain
+    # loops (one loop over both spans, through a tuple of ranges, was 16 % slower a step)
     hi = _span(par, n)
     for i in range(hi):
         k1[i] = F0[i]
@@ -1033,15 +1034,14 @@ def _step_jacobian(y, W, vd, tab, par, law, lawp, ft, rw, rw0, pt, mode, side, s
     how = _kept_jacobian(y, yJ, js, clJ, cl, m, active, sc, NY, mode, vd != 0.0 or f_ramps)
     reuse = how != 0
     js[J_FRESH] = 0.0
-    if how == 2:
+    if reuse:
         js[J_USES] += 1.0
-    elif how == 1:
-        js[J_USES] += 1.0
-        _mirror(Jc, Jb, cl, m, n, par[P_CHI] > 0.0)
-        for i in range(_span(par, n)):
-            if not (i == X or i == VEL):
-                yJ[i] = -yJ[i]
-        js[J_V] = -js[J_V]
+        if how == 1:
+            _mirror(Jc, Jb, cl, m, n, par[P_CHI] > 0.0)
+            for i in range(_span(par, n)):
+                if not (i == X or i == VEL):
+                    yJ[i] = -yJ[i]
+            js[J_V] = -js[J_V]
     else:
         js[J_USES], js[J_M], js[J_V] = 0.0, m, y[NY - 2]
         for ci in range(m):
