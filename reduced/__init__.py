@@ -3,7 +3,7 @@ fitting against the full model, full-vs-reduced comparison, and the design of
 polarity-inversion drive schemes.
 
     import reduced
-    s = reduced.fit(preset("vshape-table1"), family="charge")
+    s = reduced.fit(preset("vshape-table1"))      # the default family: lattice (families.default_family)
     s.system()                       # control.NonlinearIOSystem
     s.simulate(Protocol.reset_then_hold(6000, 20), load=5.0).unzipping_speed
     s.save("act.surrogate.json"); reduced.load("act.surrogate.json")

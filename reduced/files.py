@@ -88,6 +88,14 @@ def from_dict(d: dict) -> Surrogate:
     if not (np.all(s.tables[:, sk.WF] > 0) and np.all(s.tables[:, sk.CAP] > 0)):
         raise ValueError("tables: a layer width or capacitance <= 0, expected > 0 at every stroke (the file is "
                          "damaged: fit it again with dfa reduce)")
+    # no device holds more than its two films in series over the whole electrode (the liquid
+    # only lowers it): maps scaled past that are damaged, though finite (the lattice family
+    # ran them, pinned at a stop)
+    c_max = params.eps_f * params.w * params.l_e / (2.0 * params.t_f)
+    if np.max(s.tables[:, sk.CAP]) > 1.05 * c_max:
+        raise ValueError(f"tables: a capacitance of {np.max(s.tables[:, sk.CAP]):.3g} F, expected at most the "
+                         f"films' {c_max:.3g} F over the whole electrode (the file is damaged: fit it again with dfa "
+                         f"reduce)")
     return s
 
 

@@ -147,13 +147,15 @@ def _loss(r) -> float:
     return float(np.sum(0.5 * SCALE ** 2 * np.log1p((r / SCALE) ** 2)))
 
 
-def fit(params: Parameters, family: str = "charge", envelope: Envelope | None = None, executor=None,
+def fit(params: Parameters, family: str | None = None, envelope: Envelope | None = None, executor=None,
         progress=True, n_grid: int | None = None):
-    """Build the surrogate of `family` for `params`, fit its free numbers to full-model
-    runs over `envelope` (training conditions), and report its errors on the held-out
-    conditions in `info['heldout']`."""
+    """Build the surrogate of `family` for `params` (None: families.default_family, the
+    lattice for the 'continuum' scheme), fit its free numbers to full-model runs over
+    `envelope` (training conditions), and report its errors on the held-out conditions
+    in `info['heldout']`."""
     from scipy.optimize import least_squares
     envelope = envelope or Envelope()
+    family = families.default_family(params) if family is None else family
     base = families.build(params, family, **({} if n_grid is None else {"n_grid": n_grid}))
     n_grid = 161 if n_grid is None else n_grid
     if family == "lattice":

@@ -2,7 +2,7 @@
 by `dfa reduce`), checked to be of the same device as the parameters, or one fitted now
 and kept in the user's cache, one per parameter set and family.
 
-    s, note = surrogate_for(params, "charge", model="act.json")
+    s, note = surrogate_for(params, model="act.json")    # family None: families.default_family
 
 A surrogate of another device is an error naming the keys that differ. Discretization
 keys (N, scheme, rtol, rho_t_s) are not the device: a difference there is a note (the
@@ -87,17 +87,20 @@ def cache_path(params: Parameters, family: str) -> Path:
     return cache_dir() / f"{family}-{h[:24]}.json"
 
 
-def surrogate_for(params: Parameters, family: str = "charge", model=None, params_name="the parameters",
+def surrogate_for(params: Parameters, family: str | None = None, model=None, params_name="the parameters",
                   progress=True, say=None):
     """(surrogate, note): the one in file `model` (checked against `params`; its own
     family), else the
-    cached fit for (params, family), else a new fit, cached. `say(text)` reports what is
-    happening (a fit takes seconds to a minute)."""
+    cached fit for (params, family), else a new fit, cached (family None:
+    families.default_family). `say(text)` reports what is happening (a fit takes seconds
+    to a minute)."""
+    from .families import default_family
     from .fitting import fit
     from .files import load
     if model is not None:
         s = load(model)          # the file decides the family
         return s, check_same_device(s, params, str(model), params_name)
+    family = default_family(params) if family is None else family
     path = cache_path(params, family)
     if path.is_file():
         try:

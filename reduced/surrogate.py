@@ -117,7 +117,7 @@ class SurrogateResult(StrokeMetrics):
 class Surrogate:
     """A fitted low-order model of one actuator (see the module docstring).
 
-    family   'charge' or 'lumped' (families.py)
+    family   'lattice', 'charge' or 'lumped' (families.py)
     params   the actuator (dfa_model Parameters) the maps were computed for
     x_grid, tables  the maps of the stroke (dfa_model.numerics.surrogate_kernel columns; the
              material points' inverse gaps last)

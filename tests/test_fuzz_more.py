@@ -76,11 +76,13 @@ MODEL = TMP / "model.json"          # fitted on first use: surrogate_file()
 
 
 def surrogate_file() -> Path:
-    """MODEL: a charge surrogate of vshape-table1 at N = 21, fitted once by `dfa reduce` (a
-    case of kind 'reduce') and put in the session's surrogate cache (tests/conftest.py), so
-    that `dfa design`/`dfa hold --preset vshape-table1 --set N=21` find it there."""
+    """MODEL: a surrogate of the default family (the lattice) of vshape-table1 at N = 21,
+    fitted once by `dfa reduce` (a case of kind 'reduce') and put in the session's surrogate
+    cache (tests/conftest.py), so that `dfa design`/`dfa hold --preset vshape-table1 --set
+    N=21` find it there."""
+    from reduced.families import default_family
     from reduced.model_cache import cache_path
-    cached = cache_path(P21, "charge")
+    cached = cache_path(P21, default_family(P21))
     if not (MODEL.is_file() and cached.is_file()):
         rc, out, err, secs = run(["reduce", "--preset", "vshape-table1", *SMALL, "--out", MODEL, "--quiet"])
         REAL["reduce"] += 1

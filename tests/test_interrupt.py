@@ -155,7 +155,9 @@ def test_sweep(tmp_path, group):
 def test_reduce(tmp_path):
     """At rtol 1e-6 the training runs take 5 s on 2 workers (14 s in all)."""
     out = tmp_path / "model.json"
-    cmd = Command(["reduce", "--preset", "vshape-table1", "--set", "rtol=1e-6", "--workers", "2", "--out", str(out)])
+    # the charge family: its fit has training runs to interrupt (the lattice, the default, only held-out ones)
+    cmd = Command(["reduce", "--preset", "vshape-table1", "--set", "rtol=1e-6", "--family", "charge", "--workers", "2",
+                   "--out", str(out)])
     cmd.wait_for("training runs")
     time.sleep(1.5)
     took, kids = _interrupted(cmd, tmp_path, True, [out])
@@ -164,15 +166,16 @@ def test_reduce(tmp_path):
 
 def test_design(tmp_path):
     """The first design for a parameter set fits its surrogate (in a cache of its own
-    here), then scans and checks the drive on the full model (20,000 s horizon at a high
-    inversion frequency: 25 s in all): SIGINT in the fit's runs; nothing is cached."""
+    here; the charge family, whose fit has training runs), then scans: SIGINT in the fit's
+    training runs, once their workers run (the runs take under a second at rtol 1e-6: a
+    fixed wait after they began found the workers gone); nothing is cached."""
     cache = tmp_path / "cache"
     out, plot = tmp_path / "drive.toml", tmp_path / "design.png"
-    cmd = Command(["design", "--preset", "vshape-table1", "--set", "rtol=1e-6", "--voltage", "6000", "--force", "5",
-                   "--max-ripple", "2e-6", "--max-drift", "100e-6", "--horizon", "20000", "--out", str(out), "--plot",
-                   str(plot)], env={"DFA_SURROGATE_CACHE": str(cache)})
-    cmd.wait_for("training runs")
-    time.sleep(1.5)
+    cmd = Command(["design", "--preset", "vshape-table1", "--set", "rtol=1e-6", "--family", "charge",
+                   "--voltage", "6000", "--force", "5", "--max-ripple", "2e-6", "--max-drift", "100e-6",
+                   "--horizon", "20000", "--out", str(out), "--plot", str(plot)],
+                  env={"DFA_SURROGATE_CACHE": str(cache)})
+    cmd.wait_for(lambda: "training runs" in cmd.stderr and len(_descendants(cmd.proc.pid)) >= 2)
     took, kids = _interrupted(cmd, tmp_path, False, [out, plot])
     assert len(kids) >= 2 and not list(tmp_path.rglob("*.json"))
 
