@@ -1115,20 +1115,27 @@ def _workspace(tab, par):
 
 @njit(cache=True)
 def integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps):
-    """_integrate with a workspace of its own (its docstring)."""
-    return _integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps,
-                      _workspace(tab, par))
+    """_integrate from a copy of y0, with a workspace of its own (its docstring). Returns
+    (status, rows, steps, y)."""
+    y = y0.copy()
+    status, rows, steps = _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0, rec,
+                                     max_steps, _workspace(tab, par))
+    return status, rows, steps, y
 
 
-@njit(cache=True)
-def _integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h0, rec, max_steps, ws):
+# no reference counting (_nrt=False): it allocates nothing and y is the caller's. Counted, the
+# workspace's 28 arrays were taken and released at each call, a tenth of a compiled hold's
+# time (pi_loop calls it once a sample)
+@njit(cache=True, _nrt=False)
+def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0, rec, max_steps, ws):
     """Integrate over the input segments [tb[k], tb[k+1]] (voltage v0[k] + vs[k] (t - tb[k]),
     force likewise; in averaged mode (par[P_AVG]) w2[k] >= 0 is the segment's mean square
     voltage, the period mean <V> its voltage, and w2[k] < 0 a segment stepped as it is).
     gof[k] = (g, W): at segment k's start the charges move by b g (b their input gains at
     the mean square voltage W, _phase_offset): a cycle-averaged window's period-mean charge
     against the real waveform's at its phase (reduced.fast_inversions). Writes one record
-    row per accepted step (and the start) into rec. Returns (status, rows, steps, y).
+    row per accepted step (and the start) into rec; y (the start) is advanced in place.
+    Returns (status, rows, steps).
 
     Per step: the Jacobian kept across an inversion (_kept_jacobian) or renewed
     (_jacobian), edited on a stop (_hold_jacobian), factored (_factor); the three stages
@@ -1137,7 +1144,6 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h
     n = int(par[P_N])
     NY = NODE0 + 2 * n + 2
     hi = _span(par, n)
-    y = y0.copy()
     (F0, F1, F2, k1, k2, k3, yt, ft, rw, rw0, pt, Jb0, Jc, Jb, Jn, Jn2, Mc, Bi, piv, rc, cl, pos, cp, cq, active, yJ,
      clJ, js) = ws
     pol_force = par[P_CHI] > 0.0 and n >= 2
@@ -1169,7 +1175,7 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h
         have = have0 and seg == 0   # ft, Jn, rw0 and the couplings hold f at y (free): the last stage's
         while t < t_end - 1e-13 * max(abs(t_end), 1.0):
             if steps >= max_steps:
-                return MAX_STEPS, row, steps, y
+                return MAX_STEPS, row, steps
             hs = h
             last = False
             if t + 1.1 * hs >= t_end:
@@ -1208,7 +1214,7 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h
                                                                 fs[seg],
                                                                 active, rtol, sc)
                 if not (err == err):
-                    return NONFINITE, row, steps, y
+                    return NONFINITE, row, steps
                 # a step moves the stroke by at most DX_STEP x_e, on the error's scale (cubed,
                 # as the controller's exponent): across a snap the order-3 estimate passed a
                 # step that overshot (Table 1, 5 -> 6 kV after charging, rtol 3e-4: one step
@@ -1229,12 +1235,12 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h
                 h = hs
                 last = False
                 if steps >= max_steps:
-                    return MAX_STEPS, row, steps, y
+                    return MAX_STEPS, row, steps
             if redo:
                 js[J_FRESH] = 1.0
                 continue
             if row >= nrec:
-                return FULL, row, steps, y
+                return FULL, row, steps
             t = t_end if last else t + hs
             clipped = _land(y, yt, xe, last, v0[seg] + vs[seg] * (t_end - tb[seg]),
                             f0[seg] + fs[seg] * (t_end - tb[seg]), NY, hi)
@@ -1258,8 +1264,8 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y0, tab, par, law, lawp, sc, rtol, h
             h_new = hs * grow_factor(err)
             h = max(h, h_new) if last else h_new
             if not _finite(y, NY):
-                return NONFINITE, row, steps, y
-    return OK, row, steps, y
+                return NONFINITE, row, steps
+    return OK, row, steps
 
 
 @njit(cache=True)
@@ -1360,8 +1366,8 @@ def pi_loop(y0, tab, par, law, lawp, sc, rtol, ctl, n, half, max_steps, out):
         tb[0], tb[1] = k * dt, (k + 1) * dt
         v0[0], f0[0], w2[0] = V, F, V * V
         y[NY - 2], y[NY - 1] = V, F
-        status, rows, steps, y = _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0, rec,
-                                            max_steps, ws)
+        status, rows, steps = _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0, rec,
+                                         max_steps, ws)
         total += steps
         if status != OK:
             return status, k, total, y
