@@ -262,3 +262,14 @@ def test_a_snap_onto_a_spring_does_not_overshoot_its_balance():
     assert float(np.max(red.x)) <= x_top + 5e-6         # before: 805 against 533 um
     c = compare(s, proto, 4.0, full_result=full)
     assert c["relative_rms_error"] < 0.01
+
+
+def test_the_lattice_is_the_default_family_where_it_applies():
+    """reduced.fit/build and the commands build the lattice unless the scheme is one whose
+    nodes it does not read ('continuum-p0': the charge family)."""
+    from reduced.families import default_family
+    p = preset("vshape-table1").replace(N=21)
+    assert default_family(p) == "lattice" and reduced.build(p).family == "lattice"
+    p0 = p.replace(scheme="continuum-p0")
+    assert default_family(p0) == "charge" and reduced.build(p0).family == "charge"
+    assert reduced.build(p, "charge").family == "charge"
