@@ -92,8 +92,9 @@ def from_dict(d: dict) -> Surrogate:
     # only lowers it): maps scaled past that are damaged, though finite (the lattice family
     # ran them, pinned at a stop)
     c_max = params.eps_f * params.w * params.l_e / (2.0 * params.t_f)
-    if np.max(s.tables[:, sk.CAP]) > 1.05 * c_max:
-        raise ValueError(f"tables: a capacitance of {np.max(s.tables[:, sk.CAP]):.3g} F, expected at most the "
+    cap = float(np.max(s.tables[:, sk.CAP]))
+    if cap > 1.05 * c_max:
+        raise ValueError(f"tables: a capacitance of {cap:.3g} F, expected at most the "
                          f"films' {c_max:.3g} F over the whole electrode (the file is damaged: fit it again with dfa "
                          f"reduce)")
     return s

@@ -155,8 +155,8 @@ def fit(params: Parameters, family: str | None = None, envelope: Envelope | None
     in `info['heldout']`."""
     from scipy.optimize import least_squares
     envelope = envelope or Envelope()
-    family = families.default_family(params) if family is None else family
     base = families.build(params, family, **({} if n_grid is None else {"n_grid": n_grid}))
+    family = base.family          # None: the one build chose (families.default_family)
     n_grid = 161 if n_grid is None else n_grid
     if family == "lattice":
         # nothing to fit: every number is read off the full model
