@@ -32,14 +32,42 @@ EFFECTS = ("null", "stiffness", "inertia", "field_dependent_resistivity", "polar
 # metric at 1 um noise (tests/test_diagnosis.py) up to 4x that
 RANGES = {"stiffness": ("k", 15.0, 60.0), "inertia": ("m", 0.02, 0.1), "polarization_branch": ("chi_p", 0.01, 0.04),
           "series_resistance": ("R_s", 5e5, 2e6), "field_dependent_resistivity": ("m_rho", 4e4, 1.6e5)}
+# the lab rig's (no rest stretch, fitted sensor zeros, truth at 4x N) revealed sizes per drive:
+# the smallest size at which the baseline's held-out RMSE doubles over what it leaves on the
+# same recordings without the entry (bench_revealed_sizes.py, 2026-11-28, 3 draws a size,
+# docs/guide/diagnosis.md "What the lab rig's recordings reveal"). None: not revealed up to
+# the ladder's top (a spring to 15 kN/m, a branch to chi_p 0.04): such an entry leaves no
+# trace a diagnosis could name in these recordings, so the trial does not draw it there.
+# --sizes revealed draws each entry at 1-4x its size on the trial's rig and drive
+REVEALED_LAB = {
+    "reset_hold": {"stiffness": None, "inertia": 0.02, "polarization_branch": 0.01, "series_resistance": 1.25e5,
+                   "field_dependent_resistivity": 8e4},
+    "inversion": {"stiffness": None, "inertia": 0.02, "polarization_branch": None, "series_resistance": 2.5e5,
+                  "field_dependent_resistivity": 1.6e5},
+    "unipolar": {"stiffness": 30.0, "inertia": 0.01, "polarization_branch": 0.02, "series_resistance": 2e6,
+                 "field_dependent_resistivity": 8e4},
+}
 
 
-def draw(i: int, seed: int, laws_outside: bool = False) -> dict:
+def ranges(rig: str = "ideal", drive: str = "reset_hold", sizes: str = "ideal") -> dict:
+    """entry -> (key, low, high) drawn log-uniformly on this rig and drive. sizes 'ideal':
+    RANGES everywhere (1-4x what the ideal rig's reset + hold conceals); 'revealed': on the
+    lab rig 1-4x REVEALED_LAB[drive], the entries it does not reveal left out."""
+    if sizes == "ideal" or rig == "ideal":
+        return dict(RANGES)
+    return {e: (RANGES[e][0], v, 4.0 * v) for e, v in REVEALED_LAB[drive].items() if v is not None}
+
+
+def draw(i: int, seed: int, laws_outside: bool = False, rng_of: dict | None = None) -> dict:
     """Case i of the trial. laws_outside: a field law's truth is drawn among Eq. (21) and
     two forms the catalog does not contain (an exponential and a power law in the field,
-    dfa_model.io.synthetic), with the same relative slope at the zipped field of 6 kV."""
+    dfa_model.io.synthetic), with the same relative slope at the zipped field of 6 kV.
+    rng_of: the ranges (ranges(); default RANGES); the effects drawn are the null and the
+    entries it has, in turn."""
+    rng_of = RANGES if rng_of is None else rng_of
     rng = np.random.default_rng([seed, i])
-    effect = EFFECTS[i % len(EFFECTS)]            # balanced: every effect and the null alike
+    effects = [e for e in EFFECTS if e == "null" or e in rng_of]
+    effect = effects[i % len(effects)]            # balanced: every effect and the null alike
     by_voltage = bool(rng.integers(2)) or effect == "field_dependent_resistivity"
     if by_voltage:
         V = sorted(rng.choice([5000.0, 6000.0, 7000.0, 8000.0], 3, replace=False))
@@ -50,7 +78,7 @@ def draw(i: int, seed: int, laws_outside: bool = False) -> dict:
     reset, hold = (3.0, 20.0) if rng.integers(2) else (1.0, 10.0)
     truth = {}
     if effect != "null":
-        key, lo, hi = RANGES[effect]
+        key, lo, hi = rng_of[effect]
         value = float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
         if effect == "field_dependent_resistivity":
             # rho_l = 2e12 at the zipped field of 6 kV, falling with the field at slope -value
@@ -85,7 +113,10 @@ def run_one(case: dict) -> dict:
     if "outside" in keys:          # a law the parameter file cannot express (draw)
         from dfa_model.io.synthetic import ExponentialResistivity, PowerResistivity
         form, s = keys.pop("outside"), keys.pop("s")
-        law = ExponentialResistivity(2e12 * math.exp(s), 5.5e7 / s) if form == "exp" else \
+        # the exponential's floor (1e6 ohm m, 1e-6 of the reference) only keeps it positive
+        # in the law's check up to 1e10 V/m: at the revealed sizes' steepest (s = 8.8) it
+        # underflowed to 0 there; at the probed fields it moves rho_l by 5e-7 of itself
+        law = ExponentialResistivity(2e12 * math.exp(s), 5.5e7 / s, 1e6) if form == "exp" else \
             PowerResistivity(2e12, 5.5e7, s, 1e6)
     truth = nominal.replace(**{"rho_l": 2e12, **keys})
     meas = {**rig["measurement"], "noise": case["noise"], "rho_spread": case["rho_spread"]} \
@@ -151,6 +182,10 @@ def main(argv=None):
                     help="diagnosis.proofs.RIGS: ideal (truth at the fit's N) or lab (truth at 4x N, lab channels, "
                          "no rest stretch; the drawn noise replaces the rig's 2 um)")
     ap.add_argument("--drive", choices=["reset_hold", "inversion", "unipolar"], default="reset_hold")
+    ap.add_argument("--sizes", choices=["ideal", "revealed"], default="ideal",
+                    help="ideal: every entry at 1-4x what the ideal rig's reset + hold conceals (RANGES); revealed: "
+                         "on the lab rig at 1-4x what its recordings under the drive reveal (REVEALED_LAB), the "
+                         "entries they do not reveal left out")
     ap.add_argument("--laws-outside", action="store_true",
                     help="draw field laws among Eq. (21), an exponential and a power law (the last two outside the "
                          "catalog's forms)")
@@ -161,8 +196,13 @@ def main(argv=None):
         for line in out.read_text().splitlines():
             r = json.loads(line)
             done[r["i"]] = r
-    cases = [{**draw(i, a.seed, a.laws_outside), "N": a.N, "rig": a.rig, "drive": a.drive} for i in range(a.n)
-             if i not in done]
+    rng_of = ranges(a.rig, a.drive, a.sizes)
+    left_out = [e for e in EFFECTS if e != "null" and e not in rng_of]
+    if left_out:
+        print(f"not drawn: {', '.join(left_out)} (not revealed by the {a.rig} rig's recordings under {a.drive}; "
+              "REVEALED_LAB)", file=sys.stderr)
+    cases = [{**draw(i, a.seed, a.laws_outside, rng_of), "N": a.N, "rig": a.rig, "drive": a.drive, "sizes": a.sizes}
+             for i in range(a.n) if i not in done]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(a.workers) as ex, out.open("a") as fh:
         futs = {ex.submit(run_one, c): c for c in cases}
@@ -178,6 +218,9 @@ def main(argv=None):
                   f"{r['named'] or 'nothing'} ({'right' if r['right'] else 'WRONG'}); {ho}; {r['wall_time']:.0f} s",
                   file=sys.stderr, flush=True)
     print(summarize([done[i] for i in sorted(done) if i < a.n]))
+    print(f"sizes ({a.sizes}, {a.rig} rig, {a.drive}): "
+          + "; ".join(f"{e} {k} {lo:.3g}-{hi:.3g}" for e, (k, lo, hi) in rng_of.items())
+          + (f"; not drawn: {', '.join(left_out)}" if left_out else ""))
 
 
 if __name__ == "__main__":

@@ -1,0 +1,74 @@
+"""The randomized trial's design (benchmarks/bench_diagnosis_trial.py) and the revealed
+sizes it draws from on the lab rig (benchmarks/bench_revealed_sizes.py): which entries are
+drawn, at which sizes, and how a revealed size is read off a ladder."""
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import bench_diagnosis_trial as trial  # noqa: E402
+import bench_revealed_sizes as sizes  # noqa: E402
+
+
+def _size(case):
+    t = case["truth"]
+    if case["effect"] == "field_dependent_resistivity":
+        return -t["m_rho"] if "m_rho" in t else t["s"] * 2e12 / 5.5e7
+    return t[trial.RANGES[case["effect"]][0]]
+
+
+def test_the_ideal_sizes_draw_every_entry_in_turn_within_their_ranges():
+    cases = [trial.draw(i, 7) for i in range(24)]
+    assert [c["effect"] for c in cases] == [trial.EFFECTS[i % len(trial.EFFECTS)] for i in range(24)]
+    for c in cases:
+        if c["effect"] != "null":
+            _, lo, hi = trial.RANGES[c["effect"]]
+            assert lo <= _size(c) <= hi
+
+
+@pytest.mark.parametrize("drive", sorted(trial.REVEALED_LAB))
+def test_the_revealed_sizes_leave_out_what_the_lab_rig_does_not_reveal(drive):
+    rng_of = trial.ranges("lab", drive, "revealed")
+    hidden = {e for e, v in trial.REVEALED_LAB[drive].items() if v is None}
+    assert hidden.isdisjoint(rng_of)
+    cases = [trial.draw(i, 11, True, rng_of) for i in range(3 * (len(rng_of) + 1))]
+    drawn = {c["effect"] for c in cases}
+    assert drawn == {"null", *rng_of}          # each drawn entry and the null, in turn
+    for c in cases:
+        if c["effect"] != "null":
+            v = trial.REVEALED_LAB[drive][c["effect"]]
+            assert v * (1 - 1e-9) <= _size(c) <= 4 * v * (1 + 1e-9)
+
+
+def test_a_spring_is_not_drawn_under_reset_and_hold_on_the_lab_rig_but_is_on_the_ideal_one():
+    assert "stiffness" not in trial.ranges("lab", "reset_hold", "revealed")
+    assert "stiffness" in trial.ranges("ideal", "reset_hold", "revealed")
+    assert trial.ranges("lab", "reset_hold", "ideal") == trial.RANGES
+
+
+def _rows(entry, table):
+    return [{"entry": entry, "value": v, "draw": d, "heldout_noises": h} for v, hs in table.items()
+            for d, h in enumerate(hs)]
+
+
+def test_a_revealed_size_doubles_the_error_over_the_same_draws_floor():
+    e = "inertia"
+    lad = sizes.LADDERS[e]
+    # floors 1.0 (a noise), 2.5 and 1.2: the doubled error is 2.0, 5.0 and 2.4
+    table = {0.0: [0.9, 2.5, 1.2], lad[1]: [1.9, 4.0, 2.0], lad[2]: [2.1, 4.9, 2.5], lad[3]: [3.0, 6.0, 3.0]}
+    assert sizes.revealed_size(_rows(e, table), e) == lad[2]      # median ratio 2.0 there, 1.6 below
+    table[lad[2]] = [2.1, 4.0, 2.3]
+    assert sizes.revealed_size(_rows(e, table), e) == lad[3]
+    assert sizes.revealed_size(_rows(e, {0.0: [1.0] * 3, lad[1]: [1.5] * 3}), e) is None
+
+
+def test_the_ladders_start_from_the_same_draw_without_the_entry():
+    for e, lad in sizes.LADDERS.items():
+        assert lad[0] == 0.0 and all(b > a for a, b in zip(lad, lad[1:]))
+        assert sizes.truth_keys(e, 0.0) == {}
+        assert sizes.truth_keys(e, lad[1])
+    assert math.isclose(sizes.truth_keys("field_dependent_resistivity", 1e5)["q_rho"], 2e12 + 1e5 * 5.5e7)
