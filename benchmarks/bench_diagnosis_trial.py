@@ -58,6 +58,17 @@ def ranges(rig: str = "ideal", drive: str = "reset_hold", sizes: str = "ideal") 
     return {e: (RANGES[e][0], v, 4.0 * v) for e, v in REVEALED_LAB[drive].items() if v is not None}
 
 
+def truth_at(effect: str, value: float, tau_p: float | None = None) -> dict:
+    """The truth's changes for `effect` at size `value` (RANGES' key), besides rho_l = 2e12:
+    the field law as Eq. (21), rho_l = 2e12 at the zipped field of 6 kV falling with the
+    field at slope -value; the branch with time constant tau_p."""
+    if effect == "field_dependent_resistivity":
+        return {"law": "linear", "m_rho": -value, "q_rho": 2e12 + value * 5.5e7}
+    if effect == "polarization_branch":
+        return {"chi_p": value, "tau_p": tau_p}
+    return {RANGES[effect][0]: value}
+
+
 def draw(i: int, seed: int, laws_outside: bool = False, rng_of: dict | None = None) -> dict:
     """Case i of the trial. laws_outside: a field law's truth is drawn among Eq. (21) and
     two forms the catalog does not contain (an exponential and a power law in the field,
@@ -78,32 +89,27 @@ def draw(i: int, seed: int, laws_outside: bool = False, rng_of: dict | None = No
     reset, hold = (3.0, 20.0) if rng.integers(2) else (1.0, 10.0)
     truth = {}
     if effect != "null":
-        key, lo, hi = rng_of[effect]
+        _, lo, hi = rng_of[effect]
         value = float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+        tau_p = float(math.exp(rng.uniform(math.log(0.1), math.log(3.0)))) \
+            if effect == "polarization_branch" else None
+        truth = truth_at(effect, value, tau_p)
         if effect == "field_dependent_resistivity":
-            # rho_l = 2e12 at the zipped field of 6 kV, falling with the field at slope -value
-            truth = {"law": "linear", "m_rho": -value, "q_rho": 2e12 + value * 5.5e7}
             form = ("eq21", "exp", "power")[int(rng.integers(3))] if laws_outside else "eq21"
             if form != "eq21":
                 # the same relative slope d ln rho / d ln E at 5.5e7 V/m as the Eq. (21) draw
                 truth = {"outside": form, "s": value * 5.5e7 / 2e12}
-        elif effect == "polarization_branch":
-            truth = {"chi_p": value, "tau_p": float(math.exp(rng.uniform(math.log(0.1), math.log(3.0))))}
-        else:
-            truth = {key: value}
     return {"i": i, "effect": effect, "truth": truth, "conditions": conditions, "reset": reset, "hold": hold,
             "noise": float(rng.uniform(1e-6, 3e-6)), "rho_spread": float(rng.uniform(0.02, 0.05)),
             "seed": int(rng.integers(1 << 30))}
 
 
-def run_one(case: dict) -> dict:
-    import warnings
-    warnings.simplefilter("ignore")
-    import diagnosis
+def generate(case: dict, folder: Path) -> None:
+    """Case `case`'s recordings (draw, with its "rig", "drive" and "N") into folder: the
+    truth measured on the rig (diagnosis.proofs.RIGS; the drawn noise, and on the ideal
+    rig the drawn repetition spread) under the drive (DRIVES)."""
     from dfa_model import preset
-    from dfa_model.io.recordings import read_dataset
     from dfa_model.io.synthetic import Measurement, generate_dataset
-    from diagnosis.fit import InProcess
     from diagnosis.proofs import DRIVES, RIGS
     rig = RIGS[case.get("rig", "ideal")]
     kind, hz = DRIVES[case.get("drive", "reset_hold")]
@@ -121,12 +127,21 @@ def run_one(case: dict) -> dict:
     truth = nominal.replace(**{"rho_l": 2e12, **keys})
     meas = {**rig["measurement"], "noise": case["noise"], "rho_spread": case["rho_spread"]} \
         if case.get("rig", "ideal") == "ideal" else {**rig["measurement"], "noise": case["noise"]}
+    generate_dataset(folder, truth.replace(N=rig["truth_N"] * N), nominal, case["conditions"], repetitions=3,
+                     reset=case["reset"], hold=case["hold"], measurement=Measurement(**meas), seed=case["seed"],
+                     pretrigger=rig["pretrigger"], drive=kind, law=law,
+                     **({} if kind == "reset_hold" else {"reset_frequency": hz}))
+
+
+def run_one(case: dict) -> dict:
+    import warnings
+    warnings.simplefilter("ignore")
+    import diagnosis
+    from dfa_model.io.recordings import read_dataset
+    from diagnosis.fit import InProcess
     wall = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        generate_dataset(Path(tmp) / "data", truth.replace(N=rig["truth_N"] * N), nominal, case["conditions"],
-                         repetitions=3, reset=case["reset"], hold=case["hold"], measurement=Measurement(**meas),
-                         seed=case["seed"], pretrigger=rig["pretrigger"], drive=kind, law=law,
-                         **({} if kind == "reset_hold" else {"reset_frequency": hz}))
+        generate(case, Path(tmp) / "data")
         D = diagnosis.diagnose(read_dataset(Path(tmp) / "data"), executor=InProcess())
         report = diagnosis.report.to_json(D)
     named = [m["name"] for m in report["missing_physics"]]

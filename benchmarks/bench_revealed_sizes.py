@@ -45,14 +45,9 @@ SEED = 777001         # the draws of conditions, protocol and noise (not a trial
 
 
 def truth_keys(entry: str, value: float) -> dict:
-    """The truth's parameter changes for `entry` at size `value` (as the trial's draw)."""
-    if value == 0.0:
-        return {}          # the same draw's recordings without the entry: the model's own floor there
-    if entry == "field_dependent_resistivity":
-        return {"law": "linear", "m_rho": -value, "q_rho": 2e12 + value * 5.5e7}
-    if entry == "polarization_branch":
-        return {"chi_p": value, "tau_p": TAU_P}
-    return {trial.RANGES[entry][0]: value}
+    """The truth's parameter changes for `entry` at size `value` (as the trial's draw:
+    bench_diagnosis_trial.truth_at, an Eq. (21) law, the branch at TAU_P); size 0: none."""
+    return {} if value == 0.0 else trial.truth_at(entry, value, TAU_P)
 
 
 def run_one(job: tuple) -> dict:
@@ -60,25 +55,14 @@ def run_one(job: tuple) -> dict:
     import warnings
     warnings.simplefilter("ignore")
     import diagnosis
-    from dfa_model import preset
     from dfa_model.io.recordings import read_dataset
-    from dfa_model.io.synthetic import Measurement, generate_dataset
     from diagnosis.fit import InProcess
-    from diagnosis.proofs import DRIVES, RIGS
-    case = trial.draw(trial.EFFECTS.index(entry) + len(trial.EFFECTS) * d, SEED)
-    rig = RIGS[rig_name]
-    kind, hz = DRIVES[drive]
-    nominal = preset("vshape-table1").replace(N=N, rho_l=3e12)
-    truth = nominal.replace(**{"rho_l": 2e12, **truth_keys(entry, value)})
-    meas = {**rig["measurement"], "noise": case["noise"]}
-    if rig_name == "ideal":
-        meas["rho_spread"] = case["rho_spread"]
+    # conditions, protocol and noise as the trial draws them for this entry
+    case = {**trial.draw(trial.EFFECTS.index(entry) + len(trial.EFFECTS) * d, SEED),
+            "truth": truth_keys(entry, value), "rig": rig_name, "drive": drive, "N": N}
     wall = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        generate_dataset(Path(tmp) / "data", truth.replace(N=rig["truth_N"] * N), nominal, case["conditions"],
-                         repetitions=3, reset=case["reset"], hold=case["hold"], measurement=Measurement(**meas),
-                         seed=case["seed"], pretrigger=rig["pretrigger"], drive=kind,
-                         **({} if kind == "reset_hold" else {"reset_frequency": hz}))
+        trial.generate(case, Path(tmp) / "data")
         D = diagnosis.diagnose(read_dataset(Path(tmp) / "data"), executor=InProcess(), candidates=[])
         report = diagnosis.report.to_json(D)
     hl = [h["concealed"] for h in report["headline"] if h["concealed"] is not None]
