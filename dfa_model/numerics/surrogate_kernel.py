@@ -54,7 +54,13 @@ State y (NY = NODE0 + 2 n + 2; a state the actuator does not have stays 0):
     NY - 2, NY - 1          the inputs V and F, states with a constant slope on each segment
 
 Steps: the Rosenbrock-W pair of Shampine's ode23s (L-stable, order 2, error at order 3),
-restarted at every input breakpoint; the stops at 0 and x_e are events; a step moves the
+restarted at every input breakpoint; in the lattice form without a mass a step of at least
+ROS_SWITCH of the stroke's time constants takes ROS34PW2 instead (_stages_ros34: order 3,
+stiffly accurate, so a slow creep's steps end on the stroke's balance and its error
+estimate keeps its order there; the standard protocol's 20 s creep took 57 ode23s steps,
+22 of them rejected, and takes about 30), a step crosses at most LAT_CELLS of the
+tables' grid intervals, and the steps after landing on a stop resume at the size they
+had before the landing; the stops at 0 and x_e are events; a step moves the
 stroke by at most DX_STEP x_e, and without a mass a step that leaves the stroke off its
 balance by more than the tolerance after passing it, or after RELAX of its time constants,
 is rejected (the pair's error estimate fades as a step outgrows the mechanics' time
@@ -110,6 +116,25 @@ JAC_USES = 50
 DX_STEP = 0.2
 # a step (no mass) of this many of the stroke's time constants ends at its balance (_integrate)
 RELAX = 20.0
+# the lattice form without a mass: a step of at least this many of the stroke's time constants
+# is taken with ROS34PW2 (_stages_ros34), a shorter one with ode23s (_stages); and a step moves
+# the stroke across at most LAT_CELLS of the tables' grid intervals (_integrate)
+ROS_SWITCH = 5.0
+LAT_CELLS = 32.0
+# ROS34PW2 (Rang & Angermann, BIT 45 (2005) 761-787: 4 stages, order 3, embedded order 2,
+# L-stable and stiffly accurate) in Hairer & Wanner's transformed form (IV.7):
+# (I - h gam J) k_i = gam (f(y + h sum_j A_ij k_j) + sum_j C_ij k_j), y1 = y + h sum_i M_i k_i,
+# the error h sum_i E_i k_i; A = alpha G^-1, C = diag(1/gam) - G^-1, M = b G^-1, E = (b - b^) G^-1
+# from the paper's alpha, G (gamma_ij) and b, b^ (tests/test_ros34.py recomputes them)
+R_GAM = 0.43586652150845900
+R_A21 = 2.0
+R_A31, R_A32 = 1.4192173174557652, -0.25923221167296978
+R_A41, R_A42, R_A43 = 4.1847604823191613, -0.28519201735549599, 2.2942803602790423
+R_C21 = -4.5885607205580836
+R_C31, R_C32 = -4.1847604823191613, 0.28519201735549599
+R_C41, R_C42, R_C43 = -6.3681792001283597, -6.7956209444668367, 2.8700986043310555
+R_M1, R_M2, R_M3, R_M4 = 4.184760482319162, -0.2851920173554956, 2.294280360279042, 1.0
+R_E1, R_E2, R_E3, R_E4 = 0.277749947647969, -1.4032398951759988, 1.7726301276675507, 0.5
 # the kept Jacobian's record in integrate (js): taken at this step (not for reuse), times
 # reused in a row, number of active core columns, the input voltage it was taken at, and
 # whether it is kept across integrate's calls at a nearby voltage too (pi_loop)
@@ -968,6 +993,64 @@ def _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k
     return err, Fe2, I2, ka2, ra2, kb2, rb2, fb2
 
 
+@njit(cache=True, _nrt=False, inline="always")
+def _ros_stage(y, hs, a1, a2, a3, c1, c2, c3, k1, k2, k3, kn, W, vd, tab, par, law, lawp, F1, rw, pt, mode, side, Jb0,
+               vs_k, fs_k, hi, NY):
+    """One ROS34PW2 stage's right-hand side into kn: gam (f(y + hs (a1 k1 + a2 k2 + a3 k3))
+    + c1 k1 + c2 k2 + c3 k3) (F1 and the stage state, in kn first, are scratch)."""
+    for i in range(hi):
+        kn[i] = y[i] + hs * (a1 * k1[i] + a2 * k2[i] + a3 * k3[i])
+    for i in range(NY - 2, NY):
+        kn[i] = y[i] + hs * (a1 * k1[i] + a2 * k2[i] + a3 * k3[i])
+    rhs(kn, W, vd, tab, par, law, lawp, F1, rw, pt, mode, Jb0, side, False)
+    F1[NY - 2] = vs_k
+    F1[NY - 1] = fs_k
+    for i in range(hi):
+        kn[i] = R_GAM * (F1[i] + c1 * k1[i] + c2 * k2[i] + c3 * k3[i])
+    for i in range(NY - 2, NY):
+        kn[i] = R_GAM * (F1[i] + c1 * k1[i] + c2 * k2[i] + c3 * k3[i])
+
+
+@njit(cache=True, _nrt=False)
+def _stages_ros34(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k1, k2, k3, k4, yt, g, Jb, ka,
+                  ra, kb, rb, fb, Jb0, n, Mc, piv, Bi, NY, rc, cl, pos, m, cp, cq, rf, Jn2, vs_k, fs_k, active, rtol,
+                  sc):
+    """_stages with ROS34PW2 (the matrix I - g J factored, g = R_GAM hs): four stages, the
+    new state in yt, f there in F2, the scaled error of the embedded pair. Stiffly
+    accurate, so a step of many of the stroke's time constants ends on its balance: ode23s
+    is not, its stroke ends off the balance by a few micrometres in a slow creep, and its
+    error estimate, of order 1-2 there, set the creep's steps (half of them rejected where
+    the front crosses a material point)."""
+    pol = par[P_CHI] > 0.0
+    hi = _span(par, n)
+    for i in range(hi):
+        k1[i] = R_GAM * F0[i]
+    k1[NY - 2], k1[NY - 1] = R_GAM * F0[NY - 2], R_GAM * F0[NY - 1]
+    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k1, NY, rc, cl, pos, m, cp, cq, rf, pol)
+    _ros_stage(y, hs, R_A21, 0.0, 0.0, R_C21, 0.0, 0.0, k1, k1, k1, k2, W, vd, tab, par, law, lawp, F1, rw, pt, mode,
+               side, Jb0, vs_k, fs_k, hi, NY)
+    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k2, NY, rc, cl, pos, m, cp, cq, rf, pol)
+    _ros_stage(y, hs, R_A31, R_A32, 0.0, R_C31, R_C32, 0.0, k1, k2, k2, k3, W, vd, tab, par, law, lawp, F1, rw, pt,
+               mode, side, Jb0, vs_k, fs_k, hi, NY)
+    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k3, NY, rc, cl, pos, m, cp, cq, rf, pol)
+    _ros_stage(y, hs, R_A41, R_A42, R_A43, R_C41, R_C42, R_C43, k1, k2, k3, k4, W, vd, tab, par, law, lawp, F1, rw, pt,
+               mode, side, Jb0, vs_k, fs_k, hi, NY)
+    _solve(g, Jb, ka, ra, kb, rb, fb, n, Mc, piv, Bi, k4, NY, rc, cl, pos, m, cp, cq, rf, pol)
+    for i in range(hi):
+        yt[i] = y[i] + hs * (R_M1 * k1[i] + R_M2 * k2[i] + R_M3 * k3[i] + R_M4 * k4[i])
+    for i in range(NY - 2, NY):
+        yt[i] = y[i] + hs * (R_M1 * k1[i] + R_M2 * k2[i] + R_M3 * k3[i] + R_M4 * k4[i])
+    Fe2, I2, ka2, ra2, kb2, rb2, fb2 = rhs(yt, W, vd, tab, par, law, lawp, F2, rw, pt, mode, Jn2, side, False)
+    F2[NY - 2] = vs_k
+    F2[NY - 1] = fs_k
+    err = 0.0
+    for i in range(hi):
+        if active[i]:
+            e = hs * (R_E1 * k1[i] + R_E2 * k2[i] + R_E3 * k3[i] + R_E4 * k4[i]) / (rtol * (abs(y[i]) + sc[i]))
+            err = max(err, abs(e))
+    return err, Fe2, I2, ka2, ra2, kb2, rb2, fb2
+
+
 @njit(cache=True, inline="always")
 def _to_stop(y0, y1, xe, hs, tries):
     """A step from stroke y0 that ends at y1 past a stop is shortened to end on it (an
@@ -1115,7 +1198,8 @@ def _workspace(tab, par):
             np.empty(NCORE, dtype=np.int64),     # pos: slot -> its place among them (-1: inactive)
             np.zeros(nb), np.zeros(nb),          # cp, cq: the mechanics' row's answer to each point's P, charge
             _active_states(par, n, NY), np.zeros(NY), np.empty(NCORE, dtype=np.int64),   # active, yJ, clJ
-            np.zeros(5))                         # js: the kept Jacobian (J_NEAR 0: integrate's own)
+            np.zeros(5),                         # js: the kept Jacobian (J_NEAR 0: integrate's own)
+            np.zeros(NY))                        # k4: ROS34PW2's fourth stage
 
 
 @njit(cache=True)
@@ -1150,7 +1234,7 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
     NY = NODE0 + 2 * n + 2
     hi = _span(par, n)
     (F0, F1, F2, k1, k2, k3, yt, ft, rw, rw0, pt, Jb0, Jc, Jb, Jn, Jn2, Mc, Bi, piv, rc, cl, pos, cp, cq, active, yJ,
-     clJ, js) = ws
+     clJ, js, k4) = ws
     pol_force = par[P_CHI] > 0.0 and n >= 2
     lat = par[P_LAT] > 0.0
     nrec = rec.shape[0]
@@ -1159,6 +1243,7 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
     if js[J_NEAR] == 0.0:
         js[J_FRESH], js[J_USES], js[J_M], js[J_V] = 1.0, 0.0, -1.0, 0.0   # the kept Jacobian: none
     steps = 0
+    h_land = 0.0        # a step before it was shortened onto a stop
     mode = np.int64(FREE)   # typed as on_stop returns it (a literal 0 failed to unify in some builds)
     side = 0.0          # the renewal takes the side the front moves to (rhs's side argument: 0)
     h = h0
@@ -1210,21 +1295,33 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
             redo = False
             while True:
                 steps += 1
-                g = d * hs
+                # the lattice's long steps without a mass: ROS34PW2 (the ROS_SWITCH note)
+                ros = lat and par[P_M] == 0.0 and mode == FREE and -Jc[pos[X], pos[X]] * hs >= ROS_SWITCH
+                g = (R_GAM if ros else d) * hs
                 _factor(g, Jc, Jb, Jn, ka, ra, kb, rb, fb, n, Mc, piv, Bi, pos, m, cp, cq, rf, par[P_CHI] > 0.0)
-                err, Fe2, I2, ka2, ra2, kb2, rb2, fb2 = _stages(y, hs, W, vd, tab, par, law, lawp, rw, pt,
-                                                                mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb,
-                                                                ka, ra, kb, rb, fb, Jb0, n, Mc, piv, Bi,
-                                                                NY, rc, cl, pos, m, cp, cq, rf, Jn2, vs[seg],
-                                                                fs[seg],
-                                                                active, rtol, sc)
+                if ros:
+                    err, Fe2, I2, ka2, ra2, kb2, rb2, fb2 = _stages_ros34(
+                        y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k1, k2, k3, k4, yt, g, Jb,
+                        ka, ra, kb, rb, fb, Jb0, n, Mc, piv, Bi, NY, rc, cl, pos, m, cp, cq, rf, Jn2, vs[seg], fs[seg],
+                        active, rtol, sc)
+                else:
+                    err, Fe2, I2, ka2, ra2, kb2, rb2, fb2 = _stages(
+                        y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1, F2, k1, k2, k3, yt, g, Jb,
+                        ka, ra, kb, rb, fb, Jb0, n, Mc, piv, Bi, NY, rc, cl, pos, m, cp, cq, rf, Jn2, vs[seg], fs[seg],
+                        active, rtol, sc)
                 if not (err == err):
                     return NONFINITE, row, steps
                 # a step moves the stroke by at most DX_STEP x_e, on the error's scale (cubed,
                 # as the controller's exponent): across a snap the order-3 estimate passed a
                 # step that overshot (Table 1, 5 -> 6 kV after charging, rtol 3e-4: one step
-                # of 14 ms from 309 to 1495 um, the full model peaking at 1106)
-                err = max(err, (abs(yt[X] - y[X]) / (DX_STEP * xe)) ** 3)
+                # of 14 ms from 309 to 1495 um, the full model peaking at 1106). The lattice: at
+                # most LAT_CELLS grid intervals too (a 10 Hz train's snap off the stop, 0 to
+                # 633 um in one 1.2 ms step of 2.6 time constants, was estimated at 0.9 and
+                # 80 um off)
+                dx_max = DX_STEP * xe
+                if lat:
+                    dx_max = min(dx_max, LAT_CELLS * xe / (tab.shape[0] - 1))
+                err = max(err, (abs(yt[X] - y[X]) / dx_max) ** 3)
                 # without a mass the stroke flows to the balance of the frozen charges (at a
                 # distance of the rate over the stroke's own rate constant, -J_xx): a step that
                 # ends further from it than the tolerance and either passed it (ends moving
@@ -1242,6 +1339,8 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
                     shorter = _to_stop(y[X], yt[X], xe, hs, tries)
                     if shorter == 0.0:
                         break
+                    if tries == 0:
+                        h_land = hs
                     tries += 1
                     hs = shorter
                     last = False
@@ -1280,6 +1379,10 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
             _record(rec, row, t, y, I, Fe, NY)
             row += 1
             h_new = hs * grow_factor(err)
+            if lat and tries > 0:
+                # landed on a stop: the next steps need not start from the shortened one (a
+                # 10 Hz train spent a third of its steps growing back from 1e-9 s on the stop)
+                h_new = max(h_new, h_land)
             h = max(h, h_new) if last else h_new
             if not _finite(y, NY):
                 return NONFINITE, row, steps
