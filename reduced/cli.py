@@ -30,7 +30,7 @@ def register_reduce(sub) -> None:
     base._add_params_flags(pr)
     pr.add_argument("--family", choices=["lattice", "charge", "lumped"], default=None,
                     help="lattice (default; charge for scheme = 'continuum-p0'): a material point at every node of "
-                         "the full model, the most faithful, 7-12x faster than it; charge: 19 states of reduced "
+                         "the full model, the most faithful, 9-15x faster than it; charge: 19 states of reduced "
                          "charge dynamics, 20-26x faster, less faithful held out; lumped: the equivalent circuit")
     pr.add_argument("--out", metavar="MODEL.json", required=True)
     pr.add_argument("--workers", type=base._number(1, 1024, integer=True), help="local processes (default: all cores)")

@@ -24,7 +24,7 @@ lattice  A material point at every node of the full model's lattice (no layer, n
          (V, q_i, P_i) and the current its affine map, read off at each stroke. N (2N with
          the branch) charge states: the most faithful family (every fidelity goal of
          issue 23 on the development panel and on three held-out draws) and the default
-         (default_family); 7-12x faster than the full model in-process, the charge
+         (default_family); 9-15x faster than the full model in-process, the charge
          family 20-26x.
 """
 from __future__ import annotations
