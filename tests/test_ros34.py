@@ -1,8 +1,9 @@
 """The lattice's long-step method, ROS34PW2 (dfa_model.numerics.surrogate_kernel): its
 transformed coefficients derived again from the published tableau, its order and
-stability on the scalar test equation, and what it was brought in for - a massless
-stroke that ends a long step on its balance, and a snap off the stop taken in steps
-the tables' grid can follow."""
+stability on the scalar test equation; and the runs its long steps and the step bound
+serve - a slow creep whose records stay within the tolerance of the stroke's balance
+and of the full model, and a snap off the stop taken in steps the tables' grid can
+follow."""
 import warnings
 
 import numpy as np
@@ -85,11 +86,12 @@ def table1():
     return preset("vshape-table1")
 
 
-def test_a_creep_ends_its_steps_on_the_balance(table1):
+def test_a_creep_stays_on_the_balance_and_on_the_full_model(table1):
     """Under DC the front creeps (tens of um/s) while the massless stroke relaxes in
-    milliseconds: after a reset's 20 s hold each record's force balance is off by less
-    than the tolerance's stroke (0.05 % of x + x_e) times the stroke's stiffness, and the
-    trajectory is the full model's (the records' stroke within 3 um)."""
+    milliseconds: in a reset's 20 s hold, taken in steps of about a second, each record's
+    force balance is off by less than the tolerance's stroke (0.05 % of x + x_e) times
+    the stroke's stiffness (up to 2.0 um here; 0.9 um with ode23s's shorter steps), and
+    the trajectory is the full model's (the records' stroke within 3 um)."""
     s = reduced.lattice(table1)
     proto = Protocol.reset_then_hold(6000.0, 20.0)
     r = s.simulate(proto, 5.0)
