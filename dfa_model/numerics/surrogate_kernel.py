@@ -1245,9 +1245,6 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
         js[J_FRESH], js[J_USES], js[J_M], js[J_V] = 1.0, 0.0, -1.0, 0.0   # the kept Jacobian: none
     steps = 0
     h_land = 0.0        # a step before it was shortened onto a stop
-    dx_max = DX_STEP * xe   # the most a step moves the stroke (the lattice: LAT_CELLS grid intervals too)
-    if lat:
-        dx_max = min(dx_max, LAT_CELLS * xe / (tab.shape[0] - 1))
     mode = np.int64(FREE)   # typed as on_stop returns it (a literal 0 failed to unify in some builds)
     side = 0.0          # the renewal takes the side the front moves to (rhs's side argument: 0)
     h = h0
@@ -1322,6 +1319,9 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
                 # most LAT_CELLS grid intervals too (a 10 Hz train's snap off the stop, 0 to
                 # 633 um in one 1.2 ms step of 2.6 time constants, was estimated at 0.9 and
                 # 80 um off)
+                dx_max = DX_STEP * xe      # here, not before the loops: hoisted, the AOT hold ran 6 % slower
+                if lat:
+                    dx_max = min(dx_max, LAT_CELLS * xe / (tab.shape[0] - 1))
                 err = max(err, (abs(yt[X] - y[X]) / dx_max) ** 3)
                 # without a mass the stroke flows to the balance of the frozen charges (at a
                 # distance of the rate over the stroke's own rate constant, -J_xx): a step that
