@@ -23,6 +23,7 @@ law 'spline', monotone in ln |E|), polarization_branch (chi_p, tau_p), series_re
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -47,6 +48,10 @@ class Context:
     V_max: float
     V_ref: float
     E_ref: float
+    # ((E, rho), ...): the constant resistivity each training voltage prefers on its own,
+    # at its field (levels.voltage_levels, after the baseline fit): where the field laws
+    # also start. Empty: not scanned, or one voltage
+    levels: tuple = ()
 
     @classmethod
     def of(cls, dataset) -> "Context":
@@ -146,6 +151,51 @@ def _slope_start(p: Parameters, ctx: Context, s_rho: float, f_rho: float | None 
     return out
 
 
+LEVELS_APART = 3.0   # the voltages' levels span at least this factor: a law start through them (the
+#                      scan's grid steps by 1.78, so repetitions' scatter moves a level by one step)
+
+
+def _levels_apart(ctx: Context) -> bool:
+    r = [rho for _, rho in ctx.levels]
+    return len(r) >= 2 and max(r) >= LEVELS_APART * min(r)
+
+
+def _levels_line(p: Parameters, ctx: Context) -> list:
+    """Eq. (21) through the voltages' own levels (ctx.levels): the line through the lowest
+    and highest field's, its floor at half the lowest level; [] when the levels lie
+    within LEVELS_APART of each other or the line is not expressible in the fit's
+    coordinates (not positive at E_ref, or a slope outside the spec's bounds)."""
+    if not _levels_apart(ctx):
+        return []
+    (E1, r1), (E2, r2) = ctx.levels[0], ctx.levels[-1]
+    m = (r2 - r1) / (E2 - E1)
+    q = r1 - m * E1
+    at_ref = q + m * ctx.E_ref
+    if at_ref <= 0 or not -100.0 < m * ctx.E_ref / at_ref < 0.95:
+        return []
+    floor = min(max(0.5 * min(r1, r2), 1.1e-3 * at_ref), 4.9 * at_ref)
+    return [{"m_rho": m, "q_rho": q, "rho_min": floor}]
+
+
+def _levels_spline(p: Parameters, ctx: Context) -> list:
+    """The spline law through the voltages' own levels (ctx.levels) at p's knots: ln rho
+    interpolated in ln E between them and extended along the nearest two beyond, each
+    drop within the spec's bounds; [] when the levels lie within LEVELS_APART."""
+    import numpy as np
+    if p.law != "spline" or not _levels_apart(ctx):
+        return []
+    lE = np.log([E for E, _ in ctx.levels])
+    lr = np.log([rho for _, rho in ctx.levels])
+    lk = np.log(np.geomspace(p.E_lo, p.E_hi, p.n_knots))
+    at = np.interp(lk, lE, lr)
+    lo, hi = lk < lE[0], lk > lE[-1]
+    at[lo] = lr[0] + (lk[lo] - lE[0]) * (lr[1] - lr[0]) / (lE[1] - lE[0])
+    at[hi] = lr[-1] + (lk[hi] - lE[-1]) * (lr[-1] - lr[-2]) / (lE[-1] - lE[-2])
+    drops = np.clip(-np.diff(at), 0.0, 19.9)
+    rho_l = float(np.exp(min(at[0], math.log(1e24))))
+    return [{"rho_l": rho_l, **dict(zip(DROP_KEYS, [float(d) for d in drops]))}]
+
+
 def _no_change(p: Parameters, ctx: Context) -> Parameters:
     return p
 
@@ -180,13 +230,16 @@ PHYSICS = [
           # steep one far better (truth s_rho = -4.4: the search from 0 stayed at 0); a
           # floor out of reach has no gradient, so the steep start also starts from a
           # floor within the probed fields
-          starts=lambda p, ctx: [{}, _slope_start(p, ctx, -3.0, 0.5)]),
+          starts=lambda p, ctx: [{}, _slope_start(p, ctx, -3.0, 0.5), *_levels_line(p, ctx)]),
     # the knots are the data's choice: fitted at 2, then one more while the BIC falls
     # (diagnose._more_shape), each fit starting from the last law
     Entry("field_dependent_resistivity", _spline_law, _spline_spec,
           "the liquid's resistivity depends on its field: a monotone spline of ln rho_l in ln |E_l|, with as many "
           "knots as the data support",
-          variant="spline", shows=lambda p: ("rho_l", "n_knots", *DROP_KEYS[:p.n_knots - 1]), refine=_more_knots),
+          variant="spline", shows=lambda p: ("rho_l", "n_knots", *DROP_KEYS[:p.n_knots - 1]), refine=_more_knots,
+          # also from the law through the voltages' own levels (levels.py): a steep law's
+          # common level is no voltage's, and the fit from there stalled
+          starts=lambda p, ctx: [{}, *_levels_spline(p, ctx)]),
     Entry("polarization_branch", _no_change,
           lambda p, ctx: [FreeParameter("chi_p", False, 0.0, 5.0, scale=0.05),
                           FreeParameter("tau_p", True, 1e-3, 1e3)],

@@ -34,13 +34,14 @@ parameters with standard errors.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from dfa_model.interrupt import stop_pool
 
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .fit import evaluate, fit, local_executor
 from .improved import NOTHING_KEPT
+from .levels import voltage_levels
 from .locate import condition_trends, locate
 from .model import apply
 from .screen import Screen, predicted_delta_bic, probes
@@ -271,6 +272,8 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         say("baseline fit (rho_l)")
         f0 = fit(dataset, baseline_spec(base, ctx), base=base, holdout=holdout, executor=executor)
         base, f0, raised, fine = _resolve(dataset, base, ctx, f0, holdout, executor, say)
+        # where the field laws also start: each training voltage's own level (levels.py)
+        ctx = replace(ctx, levels=voltage_levels(dataset, f0, ctx, executor))
         say(f"baseline: train RMSE {f0.train_rmse * 1e6:.3g} um, held out {_um(f0.heldout_rmse)}; locating")
         windows = locate(dataset, f0)
         trends = condition_trends(dataset, windows)

@@ -353,7 +353,11 @@ class Problem:
                     protocol = retimed(r, **tm).protocol
                 except RecordingError as exc:
                     protocol = str(exc)
-            out.append((scaled_resistivity(p, math.exp(d)), protocol, r.load, t))
+            try:
+                q = scaled_resistivity(p, math.exp(d))
+            except ValueError as exc:     # a step beyond the model's ranges (a spline's level past 1e25)
+                q, protocol = p, f"{type(exc).__name__}: {exc}"
+            out.append((q, protocol, r.load, t))
         return out
 
     def runs(self, p: Parameters, deltas, rtol=FIT_RTOL, tz=None) -> list:
@@ -409,7 +413,7 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     def simulate_many(xps):
         # several points' runs in one batch: the executor's workers stay busy across them
         # (9 recordings on 2 cores left one idle at every batch's end)
-        jobs = [prob.jobs(apply(base, spec, xp[:k]), xp[k:k + R], tz=xp[k + R:] if T else None) for xp in xps]
+        jobs = [_jobs_at(prob, base, spec, xp, k, R, T) for xp in xps]
         runs = prob.runner([j for js in jobs for j in js])
         return [runs[i - len(js):i] for js, i in zip(jobs, np.cumsum([len(js) for js in jobs]))]
 
@@ -508,6 +512,16 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     # the solution's runs are those of its last evaluation when the search ended there
     xs = last_runs.get(sol.x.tobytes())
     return sol, prob, xs if xs is not None else simulate_all(sol.x)
+
+
+def _jobs_at(prob, base, spec, xp, k, R, T) -> list:
+    """prob's jobs at the point xp of the search; a point whose parameters the model
+    refuses (a step beyond their ranges) gives failed runs, which reject the step."""
+    try:
+        p = apply(base, spec, xp[:k])
+    except (ValueError, ArithmeticError) as exc:
+        return [(base, f"{type(exc).__name__}: {exc}", r.load, t) for r, t in zip(prob.recs, prob.times)]
+    return prob.jobs(p, xp[k:k + R], tz=xp[k + R:] if T else None)
 
 
 def warm_deltas(warm, recs) -> list:
