@@ -53,6 +53,16 @@ class Context:
     # also start. Empty: not scanned, or one voltage
     levels: tuple = ()
 
+    @property
+    def E_shape(self) -> float:
+        """Where Eq. (21)'s slope and floor coordinates are read: the lowest training
+        voltage's field once the levels are scanned, else E_ref. The unclipped line must
+        be positive there, and a falling line positive at any probed field is positive
+        at the lowest; at E_ref a law reaching its floor below the middle voltage's field
+        (the trial's miss: its line at -1e12 ohm m there) could not be expressed, and the
+        fit stalled at half the true slope."""
+        return self.levels[0][0] if self.levels else self.E_ref
+
     @classmethod
     def of(cls, dataset) -> "Context":
         recs = sorted(dataset.recordings, key=lambda r: abs(r.hold_voltage))
@@ -144,10 +154,10 @@ def _spline_spec(p: Parameters, ctx: Context) -> list:
 def _slope_start(p: Parameters, ctx: Context, s_rho: float, f_rho: float | None = None) -> dict:
     """The linear law's keys for relative slope s_rho at the reference field, same level
     (and floor f_rho x that level, if given)."""
-    q = Coordinate("slope", ctx.E_ref).put(p, s_rho)
+    q = Coordinate("slope", ctx.E_shape).put(p, s_rho)
     out = {"m_rho": q.m_rho, "q_rho": q.q_rho}
     if f_rho is not None:
-        out["rho_min"] = Coordinate("floor", ctx.E_ref).put(q, f_rho).rho_min
+        out["rho_min"] = Coordinate("floor", ctx.E_shape).put(q, f_rho).rho_min
     return out
 
 
@@ -164,14 +174,14 @@ def _levels_line(p: Parameters, ctx: Context) -> list:
     """Eq. (21) through the voltages' own levels (ctx.levels): the line through the lowest
     and highest field's, its floor at half the lowest level; [] when the levels lie
     within LEVELS_APART of each other or the line is not expressible in the fit's
-    coordinates (not positive at E_ref, or a slope outside the spec's bounds)."""
+    coordinates (not positive at E_shape, or a slope outside the spec's bounds)."""
     if not _levels_apart(ctx):
         return []
     (E1, r1), (E2, r2) = ctx.levels[0], ctx.levels[-1]
     m = (r2 - r1) / (E2 - E1)
     q = r1 - m * E1
-    at_ref = q + m * ctx.E_ref
-    if at_ref <= 0 or not -100.0 < m * ctx.E_ref / at_ref < 0.95:
+    at_ref = q + m * ctx.E_shape
+    if at_ref <= 0 or not -100.0 < m * ctx.E_shape / at_ref < 0.95:
         return []
     floor = min(max(0.5 * min(r1, r2), 1.1e-3 * at_ref), 4.9 * at_ref)
     return [{"m_rho": m, "q_rho": q, "rho_min": floor}]
@@ -192,7 +202,10 @@ def _levels_spline(p: Parameters, ctx: Context) -> list:
     at[lo] = lr[0] + (lk[lo] - lE[0]) * (lr[1] - lr[0]) / (lE[1] - lE[0])
     at[hi] = lr[-1] + (lk[hi] - lE[-1]) * (lr[-1] - lr[-2]) / (lE[-1] - lE[-2])
     drops = np.clip(-np.diff(at), 0.0, 19.9)
-    rho_l = float(np.exp(min(at[0], math.log(1e24))))
+    # the level that fits the voltages' levels best in ln rho (a clipped drop moves the
+    # law away from them, least where they are)
+    unit = from_parameters(p.replace(rho_l=1.0, **dict(zip(DROP_KEYS, [float(d) for d in drops]))))
+    rho_l = math.exp(min(float(np.mean(lr - np.log(unit.rho(np.exp(lE))))), math.log(1e24)))
     return [{"rho_l": rho_l, **dict(zip(DROP_KEYS, [float(d) for d in drops]))}]
 
 
@@ -216,14 +229,14 @@ PHYSICS = [
           starts=lambda p, ctx: [{}, {"m": 0.05}]),
     # the level (rho_l at E_ref) is the baseline's coordinate under a law; these shape it
     Entry("field_dependent_resistivity", _linear_law,
-          # s_rho = m_rho E_ref / rho_l(E_ref): the law's relative slope there (-1: rho_l
-          # halves when the field grows by half; bounded so that q_rho stays positive)
-          # f_rho: the floor rho_min as a share of the unclipped law at E_ref, free (a law
+          # s_rho = m_rho E / rho_l(E) at E = ctx.E_shape: the law's relative slope there (-1:
+          # rho_l halves when the field grows by half; bounded so that q_rho stays positive)
+          # f_rho: the floor rho_min as a share of the unclipped law at E_shape, free (a law
           # reaching its floor inside the probed fields: with the floor fixed at 1 % of
           # the level the fit missed it by 2x at 1.2 E_ref)
           lambda p, ctx: [FreeParameter("s_rho", False, -100.0, 0.95, scale=0.3,
-                                        coord=Coordinate("slope", ctx.E_ref)),
-                          FreeParameter("f_rho", True, 1e-3, 5.0, coord=Coordinate("floor", ctx.E_ref))],
+                                        coord=Coordinate("slope", ctx.E_shape)),
+                          FreeParameter("f_rho", True, 1e-3, 5.0, coord=Coordinate("floor", ctx.E_shape))],
           "the liquid's resistivity depends on its field: Eq. (21), rho_l = m_rho |E_l| + q_rho, floor rho_min",
           variant="Eq. 21", shows=("m_rho", "q_rho", "rho_min"),
           # the cost is not convex in the slope: a little slope fits worse than none, a
