@@ -76,6 +76,9 @@ def to_json(D) -> dict:
         "charge_hidden": charge_hidden(D) or None,
         "headline": headline(D),
         "trends": D.trends,
+        # the constant rho_l each training voltage prefers on its own (levels.py: where the
+        # field laws also start), at its field
+        "voltage_levels": [{"field": E, "rho_l": rho} for E, rho in getattr(D.context, "levels", ())] or None,
         "candidates": D.rounds,
         "recordings": [{"recording": r.name, "voltage": r.hold_voltage, "force": r.force_mean,
                         "notes": r.notes, "rho_factor_baseline": D.baseline.rho_factors.get(r.name),
@@ -560,9 +563,15 @@ def to_markdown(D, report: dict, plots: dict) -> str:
               "|---|---|---|---|---|---|---|---|"]
         for w in sysw:
             L.append(f"| {w.recording} | {w.name} | {w.t_start:.2f}-{w.t_end:.2f} | {w.rms * 1e6:.3g} | "
-                     f"{w.excess:.1f} | {w.runs:.1f} | {w.effect:.1f} | {w.signature} |")
+                     f"{w.excess:.1f} | {_runs_text(w.runs)} | {w.effect:.1f} | {w.signature} |")
     for s in D.trends:
         L.append(f"- {s}")
+    lv = report.get("voltage_levels")
+    if lv:
+        L.append("- Fitted alone (a grid of 4 per decade), each training voltage prefers a constant rho_l of "
+                 + ", ".join(f"{v['rho_l']:.2g} ohm m at {v['field']:.3g} V/m" for v in lv)
+                 + f": a spread of {max(v['rho_l'] for v in lv) / min(v['rho_l'] for v in lv):.2g}x (the field "
+                 "laws also start from these levels).")
     un = report.get("unexplained")
     if un:
         L += ["", "## Unexplained mismatch", "",
@@ -615,6 +624,12 @@ def to_markdown(D, report: dict, plots: dict) -> str:
         L += ["## Data handling", ""] + [f"- {a}: {b}" for a, b in notes] + [""]
     L += ["## Plots", ""] + [f"![{k}]({v})" for k, v in plots.items()]
     return "\n".join(L) + "\n"
+
+
+def _runs_text(z: float) -> str:
+    """A window's runs test for report.md: its z score, or what -inf means (locate.runs_z:
+    every residual of the window on one side)."""
+    return "all one sign" if z == -math.inf else f"{z:.1f}"
 
 
 def write(D, out) -> dict:

@@ -518,3 +518,15 @@ def test_entries_neutral_on_a_bound_start_off_it_too():
             lo, hi = spec[key].z_bounds()
             assert lo < spec[key].to_z(st[key]) < hi, (name, st)
         assert any(getattr(q, key) == off[0][key] and one_sided for q, one_sided in probes(e, p, ctx)), name
+
+
+def test_a_window_all_on_one_side_reads_so_in_the_report():
+    """locate.runs_z gives -inf for a window whose residuals all lie on one side (the
+    most systematic a window can be); report.md says that rather than '-inf'."""
+    import math
+    import numpy as np
+    from diagnosis.locate import runs_z
+    from diagnosis.report import _runs_text
+    assert runs_z(np.full(50, 1e-6)) == -math.inf
+    assert _runs_text(runs_z(np.full(50, 1e-6))) == "all one sign"
+    assert _runs_text(-3.21) == "-3.2"
