@@ -58,7 +58,7 @@ class Context:
         voltage's field once the levels are scanned, else E_ref. The unclipped line must
         be positive there, and a falling line positive at any probed field is positive
         at the lowest; at E_ref a law reaching its floor below the middle voltage's field
-        (the trial's miss: its line at -1e12 ohm m there) could not be expressed, and the
+        (the trial's miss: its line at -2e11 ohm m there) could not be expressed, and the
         fit stalled at half the true slope."""
         return self.levels[0][0] if self.levels else self.E_ref
 
@@ -151,8 +151,8 @@ def _spline_spec(p: Parameters, ctx: Context) -> list:
 
 
 def _slope_start(p: Parameters, ctx: Context, s_rho: float, f_rho: float | None = None) -> dict:
-    """The linear law's keys for relative slope s_rho at the reference field, same level
-    (and floor f_rho x that level, if given)."""
+    """The linear law's keys for relative slope s_rho at ctx.E_shape, the unclipped law
+    there unchanged (and the floor f_rho x that value, if given)."""
     q = Coordinate("slope", ctx.E_shape).put(p, s_rho)
     out = {"m_rho": q.m_rho, "q_rho": q.q_rho}
     if f_rho is not None:
