@@ -530,3 +530,18 @@ def test_a_window_all_on_one_side_reads_so_in_the_report():
     assert runs_z(np.full(50, 1e-6)) == -math.inf
     assert _runs_text(runs_z(np.full(50, 1e-6))) == "all one sign"
     assert _runs_text(-3.21) == "-3.2"
+
+
+def test_an_entry_that_fits_only_the_trained_conditions_is_said_so():
+    """report.training_only: a tried entry at the noise in training but worse held out
+    than the final model (a knee between the trained voltages, under inversion) is listed;
+    one that is not at the noise, or that predicts the held-out ones better, is not."""
+    from diagnosis.report import training_only
+    s = 1.42e-6
+    rows = {"law": {"fitted": True, "train_rmse": 1.77e-6, "heldout_rmse": 8.38e-6},
+            "spring": {"fitted": True, "train_rmse": 4.0e-6, "heldout_rmse": 9.0e-6},      # 2.8 noises in training
+            "branch": {"fitted": True, "train_rmse": 1.5e-6, "heldout_rmse": 4.0e-6},      # better held out
+            "mass": {"fitted": False, "why": "not shortlisted"}}
+    out = training_only(rows, s, 4.79e-6)
+    assert [r["candidate"] for r in out] == ["law"]
+    assert training_only(rows, s, None) == []
