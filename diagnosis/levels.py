@@ -27,10 +27,13 @@ from .model import rho_at, zipped_field
 LEVEL_DECADES = 3.0   # the scan's half width around the fit's level (decades)
 LEVEL_STEPS = 4       # grid points per decade (a factor 1.78 between them)
 LEVEL_BOUNDS = (1e8, 1e16)   # the baseline's own bounds on the level (catalog.baseline_spec)
+LEVEL_VOLTAGES = 4    # voltages scanned at most, spread over the training voltages' range
+LEVEL_RECORDINGS = 3  # recordings of each voltage scanned at most
 
 
 def voltage_levels(dataset, f, ctx, executor=None) -> tuple:
-    """((E, rho), ...) ascending in E: per hold voltage of f's training recordings, the
+    """((E, rho), ...) ascending in E: per hold voltage of f's training recordings (at most
+    LEVEL_VOLTAGES of them, the lowest and the highest among them; LEVEL_RECORDINGS of each), the
     resistivity level (the fit's law scaled at every field, its value at ctx.E_ref) whose
     runs fit that voltage's training recordings best on the grid; E the field there, on
     E_ref's scale: E_ref is the mean front field over the middle voltage's hold
@@ -38,10 +41,20 @@ def voltage_levels(dataset, f, ctx, executor=None) -> tuple:
     scales with the voltage. Empty with fewer than two training voltages: one voltage says
     nothing about a law's shape."""
     by = {r.name: r for r in dataset.recordings}
-    train = [by[n] for n in f.train]
-    volts = _voltages(train)
+    volts = _voltages([by[n] for n in f.train])
     if len(volts) < 2 or f.lsq is None:
         return ()
+    # at most LEVEL_VOLTAGES voltages (the lowest and highest among them) and
+    # LEVEL_RECORDINGS recordings of each: the levels are starts, and 150 recordings at
+    # 30 voltages would otherwise cost 25 runs each
+    volts = [volts[i] for i in sorted({round(j) for j in np.linspace(0, len(volts) - 1, LEVEL_VOLTAGES)})]
+    train, count = [], {}
+    for n in f.train:
+        r = by[n]
+        V = min(volts, key=lambda v: abs(r.condition()[0] - v))
+        if abs(r.condition()[0] - V) <= CONDITION_V * V and count.get(V, 0) < LEVEL_RECORDINGS:
+            train.append(r)
+            count[V] = count.get(V, 0) + 1
     level = rho_at(f.params, ctx.E_ref)
     scale = ctx.E_ref / zipped_field(f.params, ctx.V_ref)
     grid = level * 10.0 ** np.linspace(-LEVEL_DECADES, LEVEL_DECADES, int(2 * LEVEL_DECADES * LEVEL_STEPS) + 1)

@@ -120,3 +120,36 @@ def test_a_search_step_beyond_the_models_ranges_is_a_rejected_step():
     # such a job's run is the message, which Problem.residuals turns into FAILED samples
     from diagnosis.fit import _run
     assert _run(jobs[0]) == jobs[0][1]
+
+
+def test_the_scan_is_bounded_on_large_datasets(monkeypatch):
+    """150 recordings at 30 voltages: at most LEVEL_VOLTAGES voltages (the lowest and the
+    highest among them) and LEVEL_RECORDINGS recordings of each are run, one batch."""
+    from types import SimpleNamespace as NS
+    from diagnosis import levels
+    from diagnosis.levels import LEVEL_RECORDINGS, LEVEL_VOLTAGES
+    volts = [5000.0 + 100.0 * i for i in range(30)]
+    recs = [NS(name=f"r{v:g}_{j}", condition=(lambda v=v: (v, 5.0))) for v in volts for j in range(5)]
+    ds = NS(recordings=recs)
+    seen = {}
+
+    class Prob:
+        def __init__(self, train, runner, *a):
+            seen["train"] = train
+            self.offs = np.arange(len(train) + 1)
+
+        def flat_timing(self, t):
+            return None
+
+        def jobs(self, p, d, tz=None):
+            return [None] * len(seen["train"])
+
+        runner = staticmethod(lambda jobs: ["failed"] * len(jobs))
+
+    monkeypatch.setattr(levels, "Problem", Prob)
+    p = preset("vshape-table1")
+    f = NS(train=[r.name for r in recs], lsq={"sigma_rep": 0.05, "decimate": 5}, params=p, sigma=1e-6, timing={})
+    assert voltage_levels(ds, f, Context(7900.0, 6500.0, 6e7)) == ()     # every run failed: no level
+    used = {r.condition()[0] for r in seen["train"]}
+    assert len(seen["train"]) <= LEVEL_VOLTAGES * LEVEL_RECORDINGS
+    assert min(used) == volts[0] and max(used) == volts[-1] and len(used) == LEVEL_VOLTAGES
