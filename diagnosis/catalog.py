@@ -160,6 +160,8 @@ def _slope_start(p: Parameters, ctx: Context, s_rho: float, f_rho: float | None 
     return out
 
 
+S_RHO_BOUNDS = (-100.0, 0.95)   # Eq. (21)'s relative slope at E_shape (its spec below)
+F_RHO_BOUNDS = (1e-3, 5.0)      # its floor as a share of the unclipped law there
 LEVELS_APART = 3.0   # the voltages' levels span at least this factor: a law start through them (the
 #                      scan's grid steps by 1.78, so repetitions' scatter moves a level by one step)
 
@@ -171,19 +173,18 @@ def _levels_apart(ctx: Context) -> bool:
 
 def _levels_line(p: Parameters, ctx: Context) -> list:
     """Eq. (21) through the voltages' own levels (ctx.levels): the line through the lowest
-    and highest field's, its floor at half the lowest level; [] when the levels lie
-    within LEVELS_APART of each other or the line is not expressible in the fit's
-    coordinates (not positive at E_shape, or a slope outside the spec's bounds)."""
+    and highest field's, its floor at half the lowest level, just inside F_RHO_BOUNDS; []
+    when the levels lie within LEVELS_APART of each other or the line's slope is outside
+    S_RHO_BOUNDS. The coordinates are read at E_shape, the lowest level's field, where the
+    line is that level (r1 > 0)."""
     if not _levels_apart(ctx):
         return []
     (E1, r1), (E2, r2) = ctx.levels[0], ctx.levels[-1]
     m = (r2 - r1) / (E2 - E1)
-    q = r1 - m * E1
-    at_ref = q + m * ctx.E_shape
-    if at_ref <= 0 or not -100.0 < m * ctx.E_shape / at_ref < 0.95:
+    if not S_RHO_BOUNDS[0] < m * E1 / r1 < S_RHO_BOUNDS[1]:
         return []
-    floor = min(max(0.5 * min(r1, r2), 1.1e-3 * at_ref), 4.9 * at_ref)
-    return [{"m_rho": m, "q_rho": q, "rho_min": floor}]
+    floor = min(max(0.5 * min(r1, r2), 1.1 * F_RHO_BOUNDS[0] * r1), 0.98 * F_RHO_BOUNDS[1] * r1)
+    return [{"m_rho": m, "q_rho": r1 - m * E1, "rho_min": floor}]
 
 
 def _no_change(p: Parameters, ctx: Context) -> Parameters:
@@ -211,9 +212,9 @@ PHYSICS = [
           # f_rho: the floor rho_min as a share of the unclipped law at E_shape, free (a law
           # reaching its floor inside the probed fields: with the floor fixed at 1 % of
           # the level the fit missed it by 2x at 1.2 E_ref)
-          lambda p, ctx: [FreeParameter("s_rho", False, -100.0, 0.95, scale=0.3,
+          lambda p, ctx: [FreeParameter("s_rho", False, *S_RHO_BOUNDS, scale=0.3,
                                         coord=Coordinate("slope", ctx.E_shape)),
-                          FreeParameter("f_rho", True, 1e-3, 5.0, coord=Coordinate("floor", ctx.E_shape))],
+                          FreeParameter("f_rho", True, *F_RHO_BOUNDS, coord=Coordinate("floor", ctx.E_shape))],
           "the liquid's resistivity depends on its field: Eq. (21), rho_l = m_rho |E_l| + q_rho, floor rho_min",
           variant="Eq. 21", shows=("m_rho", "q_rho", "rho_min"),
           # the cost is not convex in the slope: a little slope fits worse than none, a

@@ -48,13 +48,13 @@ def voltage_levels(dataset, f, ctx, executor=None) -> tuple:
     # LEVEL_RECORDINGS recordings of each: the levels are starts, and 150 recordings at
     # 30 voltages would otherwise cost 25 runs each
     volts = [volts[i] for i in sorted({round(j) for j in np.linspace(0, len(volts) - 1, LEVEL_VOLTAGES)})]
-    train, count = [], {}
+    train, group = [], []        # the recordings scanned, and each one's voltage (index in volts)
     for n in f.train:
         r = by[n]
-        V = min(volts, key=lambda v: abs(r.condition()[0] - v))
-        if abs(r.condition()[0] - V) <= CONDITION_V * V and count.get(V, 0) < LEVEL_RECORDINGS:
+        v = min(range(len(volts)), key=lambda i: abs(r.condition()[0] - volts[i]))
+        if abs(r.condition()[0] - volts[v]) <= CONDITION_V * volts[v] and group.count(v) < LEVEL_RECORDINGS:
             train.append(r)
-            count[V] = count.get(V, 0) + 1
+            group.append(v)
     level = rho_at(f.params, ctx.E_ref)
     scale = ctx.E_ref / zipped_field(f.params, ctx.V_ref)
     grid = level * 10.0 ** np.linspace(-LEVEL_DECADES, LEVEL_DECADES, int(2 * LEVEL_DECADES * LEVEL_STEPS) + 1)
@@ -65,15 +65,13 @@ def voltage_levels(dataset, f, ctx, executor=None) -> tuple:
     jobs = [j for L in grid for j in prob.jobs(scaled_resistivity(f.params, L / level), zeros, tz=tz)]
     runs = prob.runner(jobs)
     R = len(train)
-    group = np.array([int(np.argmin([abs(r.condition()[0] - V) for V in volts])) for r in train])
     sse = np.full((len(grid), len(volts)), np.inf)
     for g in range(len(grid)):
         xs = runs[g * R:(g + 1) * R]
         if any(isinstance(x, str) for x in xs):
             continue
-        res = prob.residuals(xs, zeros, tz)
-        per = np.array([float(res[prob.offs[j]:prob.offs[j + 1]] @ res[prob.offs[j]:prob.offs[j + 1]])
-                        for j in range(R)])
+        res = prob.residuals(xs, zeros, tz)[:prob.n]
+        per = np.add.reduceat(res * res, prob.offs[:-1])      # each recording's sum of squares
         sse[g] = np.bincount(group, per, minlength=len(volts))
     out = []
     for v in range(len(volts)):
@@ -81,7 +79,6 @@ def voltage_levels(dataset, f, ctx, executor=None) -> tuple:
             continue
         out.append((zipped_field(f.params, volts[v]) * scale, float(grid[int(np.argmin(sse[:, v]))])))
     return tuple(sorted(out)) if len(out) >= 2 else ()
-
 
 
 def _voltages(recs) -> list:

@@ -10,6 +10,7 @@ import numpy as np
 from dfa_model.io.fileio import write_atomic, write_text_atomic
 
 from .improved import entry_parameters, raised_phrases, write_improved, write_protocols
+from .levels import LEVEL_STEPS
 
 HOLD_MIN = 2.0      # s: a hold (or one-polarity stretch) shorter than this keeps the charge near zero
 
@@ -587,7 +588,8 @@ def to_markdown(D, report: dict, plots: dict) -> str:
         L.append(f"- {s}")
     lv = report.get("voltage_levels")
     if lv:
-        L.append("- Fitted alone (a grid of 4 per decade), each training voltage prefers a constant rho_l of "
+        L.append(f"- Fitted alone (a grid of {LEVEL_STEPS} per decade), each training voltage prefers a constant "
+                 "rho_l of "
                  + ", ".join(f"{v['rho_l']:.2g} ohm m at {v['field']:.3g} V/m" for v in lv)
                  + f": a spread of {max(v['rho_l'] for v in lv) / min(v['rho_l'] for v in lv):.2g}x (the field "
                  "laws also start from these levels).")
