@@ -125,3 +125,17 @@ def test_paper_scheme_runs_through_its_sliding_points(vshape):
         peaks.append(r.x.max())
     ours = simulate(vshape, Protocol.dc(6000, 2.0), load=5.0).x.max()
     assert peaks[0] < peaks[1] < ours
+
+
+def test_diagnostics_returns_every_power_slot(vshape81):
+    """DFAModel.diagnostics hands the kernel an array for all NPOW powers (it wrote one
+    past a 6-entry array before: numba does not check bounds), and the input power is
+    the source's V I of the same row."""
+    from dfa_model.physics.equations import NPOW, R_I
+    m = DFAModel(vshape81)
+    y = m.initial_state(4e-4)
+    row, P = m.diagnostics(y, 6000.0, 5.0)
+    assert P.shape == (NPOW,)
+    assert np.all(np.isfinite(P))
+    assert P[0] == pytest.approx(6000.0 * row[R_I], rel=1e-12)
+    assert P[6] == 0.0          # impacts are booked per event, never as a power

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import dielectrics, kinematics
-from .equations import (B, CHI_P, DS, R_S, EPS_F, EPS_L, K, MASS, NMAT, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F, TAU_L, TAU_P, U0,
-                        W, X_E, XSC)
+from .equations import (B, CHI_P, DS, R_S, EPS_F, EPS_L, K, MASS, NMAT, NPOW, NREC, QSC, RHO_TS, T0, T_F, T_LZ, TAU_F,
+                        TAU_L, TAU_P, U0, W, X_E, XSC)
 from ..numerics.kernels import NODAL, P0_SCHEME, PAPER, diagnostics, rhs
 from ..numerics.integrator import make_workspace
 from .nodal import NWORK
@@ -141,7 +141,7 @@ class DFAModel:
         y = np.ascontiguousarray(y, dtype=float)
         ydot = self.rhs(y, V, F, mat)
         row = np.zeros(NREC)
-        P = np.zeros(6)
+        P = np.zeros(NPOW)   # every power slot equations.write_outputs fills (6 had lost the last)
         diagnostics(self.cfg, self.geo, mat, self.law.law_id, self.law.params, float(V), float(dVdt), float(F),
                     y, ydot, np.zeros(6), np.zeros(NWORK), row, P)
         return row, P
