@@ -72,3 +72,36 @@ def test_the_build_hook_compiles_its_own_sources():
     """setup.py runs the builder with DFA_JIT set, so an installed build is never loaded by it."""
     text = (ROOT / "setup.py").read_text()
     assert 'DFA_JIT="1"' in text
+
+
+def test_an_extension_runs_only_on_the_cpu_it_was_built_for():
+    """The extension is generated for the building machine's CPU (aot.py: its model and
+    features); on another CPU its instructions may not exist, so _jit falls back to numba
+    there rather than load it. A generic build ("", or one from before the target was
+    recorded) runs anywhere."""
+    from types import SimpleNamespace
+
+    from dfa_model import _jit
+    here = _jit.host_cpu()
+    assert here.startswith(("cpuinfo:", "llvm:")) and here == _jit.host_cpu()
+    assert _jit._runs_here(SimpleNamespace(target_cpu=lambda: here))
+    assert _jit._runs_here(SimpleNamespace(target_cpu=lambda: ""))
+    assert _jit._runs_here(SimpleNamespace())
+    assert not _jit._runs_here(SimpleNamespace(target_cpu=lambda: "cpuinfo:" + "0" * 32))
+    if _jit.AOT is not None:           # this build: for this machine (setup.py's default), or generic
+        assert _jit.AOT.target_cpu() in (here, "")
+
+
+def test_a_portable_build_is_asked_for_by_the_environment(monkeypatch):
+    """DFA_AOT_CPU=generic builds for pycc's generic CPU model (no target recorded); the
+    default is this machine; anything else is refused by name."""
+    from dfa_model import _jit, aot
+    monkeypatch.setenv("DFA_AOT_CPU", "generic")
+    assert aot._target() == ""
+    monkeypatch.setenv("DFA_AOT_CPU", "host")
+    assert aot._target() in (_jit.host_cpu(), "")       # "": a numba whose AOT code generator cannot take it
+    monkeypatch.delenv("DFA_AOT_CPU")
+    assert aot._target() == aot._target() != "generic"
+    monkeypatch.setenv("DFA_AOT_CPU", "skylake")
+    with pytest.raises(ValueError, match="DFA_AOT_CPU: got 'skylake'"):
+        aot._target()
