@@ -113,6 +113,14 @@ JAC_TOL = 0.02
 JAC_USES = 50
 # the most an accepted step moves the stroke, as a share of x_e (_integrate)
 DX_STEP = 0.2
+# a step's first try moves the stroke at its start's rate by at most this share of that
+# (_integrate): after a switch the step carried over from before it was tried and cut
+# 3-7 times (7 of a unipolar train's 33 tries a period, at the switch on)
+DX_FIRST = 0.7
+# a step landed on a stop within this share of its travel ends on it (_snap)
+LAND_SHARE = 1e-3
+# the most a step held on a stop may grow after an accepted one (GROW_MAX elsewhere)
+GROW_HELD = 50.0
 # a step (no mass) of this many of the stroke's time constants ends at its balance (_integrate)
 RELAX = 20.0
 # the lattice form without a mass: a step of at least this many of the stroke's time constants
@@ -147,7 +155,9 @@ def _cell(tab, xe, x):
     fraction f into it."""
     n = tab.shape[0]
     u = min(max(x, 0.0), xe) / xe * (n - 1)
-    i = int(u)
+    # a NaN stroke (a non-finite state: evaluate's, a diverged stage's) gives NaN values
+    # from interval 0; int(NaN) is -2^63, an unchecked index far outside the table
+    i = int(u) if u == u else 0
     if i > n - 2:
         i = n - 2
     return i, u - i
@@ -572,9 +582,11 @@ def _core_rates(y, W, vdot, par, law, lawp, ydot, rw, pt, mode, qz, NY, side, cu
         # spacing back, renewed a creeping front with material zipped long before it
         h = par[P_LE] / (n - 1)
         lz = rw[LZ]
+        sb = max(lz - rw[WF] / par[P_IWB], 0.0) / h
+        if not (lz == lz and sb == sb):   # a NaN stroke (_cell): NaN rates, the points' indices in range
+            lz, sb = 0.0, 0.0
         ka = min(max(int(math.floor(lz / h + 1e-12)), 0) + 1, n - 1)
         qsa, Psa = y[NODE0 + ka], y[NODE0 + n + ka]
-        sb = max(lz - rw[WF] / par[P_IWB], 0.0) / h
         kb = min(int(sb), n - 2)
         fb = sb - kb
         if (kb + 1) * h <= lz:
@@ -1055,13 +1067,34 @@ def _stages_ros34(y, hs, W, vd, tab, par, law, lawp, rw, pt, mode, side, F0, F1,
 @njit(cache=True, inline="always")
 def _to_stop(y0, y1, xe, hs, tries):
     """A step from stroke y0 that ends at y1 past a stop is shortened to end on it (an
-    event; at most 6 tries, then within 1e-9 x_e past it counts as on it). Returns the
-    shortened step, or 0 to accept this one."""
+    event; at most 6 tries, then within 1e-9 x_e past it counts as on it, and a shortened
+    one within LAND_SHARE of its travel). Returns the shortened step, or 0 to accept this
+    one."""
     f_near, f_far, side = to_stop(y0, y1, xe)
     over = f_near / (f_near - f_far) if side != 0 else 0.0
-    if over == 0.0 or tries >= 6 or (y1 < 0.0 and y1 > -1e-9 * xe) or (y1 > xe and y1 < xe * (1.0 + 1e-9)):
+    # on it: within 1e-9 x_e past it, or, once shortened, within LAND_SHARE of the travel (_snap)
+    near = max(1e-9 * xe, LAND_SHARE * abs(y1 - y0)) if tries > 0 else 1e-9 * xe
+    if over == 0.0 or tries >= 6 or (y1 < 0.0 and y1 > -near) or (y1 > xe and y1 < xe + near):
         return 0.0
     return hs * (min(max(over, 1e-3), 0.999) * 1.0001 if tries < 3 else 1.0001 * over)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _snap(x0, yt, xe):
+    """A step shortened onto a stop (_to_stop) that ends short of it by a hair (within
+    LAND_SHARE of its travel) ends on it: left a few nanometres inside, the next step was
+    a free one into the stop, shortened twice more (3 tries of a unipolar train's 33 a
+    period). Returns whether it moved yt."""
+    near = LAND_SHARE * abs(yt[X] - x0)
+    if 0.0 < yt[X] <= near:
+        yt[X] = 0.0
+    elif xe - near <= yt[X] < xe:
+        yt[X] = xe
+    else:
+        return False
+    if (yt[X] == 0.0 and yt[VEL] < 0.0) or (yt[X] == xe and yt[VEL] > 0.0):
+        yt[VEL] = 0.0
+    return True
 
 
 @njit(cache=True, _nrt=False)
@@ -1283,6 +1316,16 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
             if mode == HELD:
                 F0[X] = 0.0
                 F0[VEL] = 0.0
+            elif F0[X] != 0.0:
+                # the first try moves the stroke at most DX_FIRST of a step's most (DX_FIRST):
+                # at its start's rate, or, without a mass, towards a balance nearer than that
+                # (a polarity inversion's dip) not at all
+                dx_first = DX_FIRST * (min(DX_STEP * xe, LAT_CELLS * xe / (tab.shape[0] - 1)) if lat else DX_STEP * xe)
+                jxx = Jc[pos[X], pos[X]]
+                far = par[P_M] > 0.0 or jxx >= 0.0 or abs(F0[X]) > -jxx * dx_first
+                if far and abs(F0[X]) * hs > dx_first:
+                    hs = dx_first / abs(F0[X])
+                    last = False
             # the polarization's force couples the mechanics' row to every point's P
             rf = -1
             if (pol_force or lat) and mode == FREE:
@@ -1293,6 +1336,7 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
                 if lat:
                     _charge_slopes(y, rw0, n, y[VD] if par[P_RS] > 0.0 else y[NY - 2], rate, cq)
             tries = 0
+            snapped = False
             redo = False
             while True:
                 steps += 1
@@ -1339,6 +1383,8 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
                 if err <= 1.0:
                     shorter = _to_stop(y[X], yt[X], xe, hs, tries)
                     if shorter == 0.0:
+                        if tries > 0:
+                            snapped = _snap(y[X], yt, xe)
                         break
                     if tries == 0:
                         h_land = hs
@@ -1361,7 +1407,7 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
                 return FULL, row, steps
             t = t_end if last else t + hs
             clipped = _land(y, yt, xe, last, v0[seg] + vs[seg] * (t_end - tb[seg]),
-                            f0[seg] + fs[seg] * (t_end - tb[seg]), NY, hi)
+                            f0[seg] + fs[seg] * (t_end - tb[seg]), NY, hi) or snapped
             if par[P_DM] > 0.0:
                 _replay(y, tab, par, xe)
             # the last stage is f at the new state: the next step's start (first same as
@@ -1379,7 +1425,11 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
                 ka, ra, kb, rb, fb = ka2, ra2, kb2, rb2, fb2
             _record(rec, row, t, y, I, Fe, NY)
             row += 1
-            h_new = hs * grow_factor(err)
+            # held on a stop the stroke is fixed and the charges' rates are linear: their
+            # error estimate is trusted to grow the step up to GROW_HELD (from the landing's
+            # step, a unipolar train's held half period took 5 steps at GROW_MAX)
+            h_new = hs * (grow_factor(err) if mode != HELD else
+                          (min(GROW_HELD, 0.9 * err ** (-1.0 / 3.0)) if err > 0.0 else GROW_HELD))
             if lat and tries > 0:
                 # landed on a stop: the next steps need not start from the shortened one (a
                 # 10 Hz train spent a third of its steps growing back from 1e-9 s on the stop)

@@ -58,6 +58,8 @@ def rho_of(law, lawp, E_abs):
         return math.exp(lawp[3])
     if pos >= n - 1:
         return math.exp(lawp[3 + n - 1])
+    if pos != pos:    # a NaN field (a non-finite state): NaN, not int(NaN) = -2^63 as an index
+        return pos
     i = int(pos)
     fr = pos - i
     return math.exp(lawp[3 + i] * (1.0 - fr) + lawp[4 + i] * fr)
