@@ -14,10 +14,10 @@ GROW_MIN = 0.2      # ... and the least (an accepted step with an error near 1)
 
 
 @njit(cache=True, inline="always")
-def grow_factor(err):
+def grow_factor(err, top=GROW_MAX):
     """The next step over this one after an accepted step with the scaled error err
-    (<= 1): 0.9 err^(-1/3) (a third-order estimate), within [GROW_MIN, GROW_MAX]."""
-    return min(GROW_MAX, max(GROW_MIN, 0.9 * err ** (-1.0 / 3.0) if err > 0 else GROW_MAX))
+    (<= 1): 0.9 err^(-1/3) (a third-order estimate), within [GROW_MIN, top]."""
+    return min(top, max(GROW_MIN, 0.9 * err ** (-1.0 / 3.0) if err > 0 else top))
 
 
 @njit(cache=True, inline="always")

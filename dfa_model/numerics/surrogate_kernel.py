@@ -79,7 +79,7 @@ import numpy as np
 
 from .._jit import njit
 from ..physics.equations import j_and_slope, j_of_E
-from .stepping import grow_factor, shrink_factor, to_stop
+from .stepping import GROW_MAX, grow_factor, shrink_factor, to_stop
 
 # state indices
 X, VEL, VD, QF, PF, QB, PB, QA, PA, SM = range(10)
@@ -1080,6 +1080,13 @@ def _to_stop(y0, y1, xe, hs, tries):
 
 
 @njit(cache=True, _nrt=False, inline="always")
+def _dx_bound(xe, tab, lat):
+    """The most an accepted step moves the stroke: DX_STEP x_e, and in the lattice form at
+    most LAT_CELLS of the tables' grid intervals."""
+    return min(DX_STEP * xe, LAT_CELLS * xe / (tab.shape[0] - 1)) if lat else DX_STEP * xe
+
+
+@njit(cache=True, _nrt=False, inline="always")
 def _snap(x0, yt, xe):
     """A step shortened onto a stop (_to_stop) that ends short of it by a hair (within
     LAND_SHARE of its travel) ends on it: left a few nanometres inside, the next step was
@@ -1320,7 +1327,7 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
                 # the first try moves the stroke at most DX_FIRST of a step's most (DX_FIRST):
                 # at its start's rate, or, without a mass, towards a balance nearer than that
                 # (a polarity inversion's dip) not at all
-                dx_first = DX_FIRST * (min(DX_STEP * xe, LAT_CELLS * xe / (tab.shape[0] - 1)) if lat else DX_STEP * xe)
+                dx_first = DX_FIRST * _dx_bound(xe, tab, lat)
                 jxx = Jc[pos[X], pos[X]]
                 far = par[P_M] > 0.0 or jxx >= 0.0 or abs(F0[X]) > -jxx * dx_first
                 if far and abs(F0[X]) * hs > dx_first:
@@ -1363,9 +1370,7 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
                 # most LAT_CELLS grid intervals too (a 10 Hz train's snap off the stop, 0 to
                 # 633 um in one 1.2 ms step of 2.6 time constants, was estimated at 0.9 and
                 # 80 um off)
-                dx_max = DX_STEP * xe      # here, not before the loops: hoisted, the AOT hold ran 6 % slower
-                if lat:
-                    dx_max = min(dx_max, LAT_CELLS * xe / (tab.shape[0] - 1))
+                dx_max = _dx_bound(xe, tab, lat)   # here, not before the loops: hoisted, the AOT hold ran 6 % slower
                 err = max(err, (abs(yt[X] - y[X]) / dx_max) ** 3)
                 # without a mass the stroke flows to the balance of the frozen charges (at a
                 # distance of the rate over the stroke's own rate constant, -J_xx): a step that
@@ -1428,8 +1433,7 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
             # held on a stop the stroke is fixed and the charges' rates are linear: their
             # error estimate is trusted to grow the step up to GROW_HELD (from the landing's
             # step, a unipolar train's held half period took 5 steps at GROW_MAX)
-            h_new = hs * (grow_factor(err) if mode != HELD else
-                          (min(GROW_HELD, 0.9 * err ** (-1.0 / 3.0)) if err > 0.0 else GROW_HELD))
+            h_new = hs * grow_factor(err, GROW_HELD if mode == HELD else GROW_MAX)
             if lat and tries > 0:
                 # landed on a stop: the next steps need not start from the shortened one (a
                 # 10 Hz train spent a third of its steps growing back from 1e-9 s on the stop)
