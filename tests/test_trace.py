@@ -117,3 +117,22 @@ def test_cycle_metrics_are_linear_in_the_run_length():
     assert np.allclose(c[:, 3] - c[:, 2], 2.0, atol=0.03)
     assert abs(drift_rate(tr, 1.0, 0.0, float(n)) + 1e-3) < 1e-9     # rising: stroke gained, a negative loss
     assert abs(last_periods(tr, 1.0, n)[0] - 2.0) < 0.03
+
+
+def test_argmax_over_the_whole_span_is_the_windowed_one():
+    """argmax() takes a path of its own over the whole span (_argmax_all, without the
+    windows' masks): the same time as argmax(t0, t1) on traces with plateaus, a peak at an
+    end, interior vertices and clipped stops."""
+    rng = np.random.default_rng(7)
+    for k in range(200):
+        n = int(rng.integers(1, 40))
+        t = np.cumsum(np.r_[0.0, rng.uniform(0.0, 1.0, n) * (rng.uniform(size=n) > 0.1)])
+        x = np.round(rng.normal(size=n + 1), 1)          # ties: plateaus and repeated maxima
+        if k % 3 == 0:
+            tr = StrokeTrace.from_samples(t, x)
+        else:
+            g = np.round(rng.normal(size=n), 1)
+            tr = StrokeTrace(t, x[:-1], g, x[1:], lo=-0.5 if k % 3 == 2 else -np.inf, hi=0.8 if k % 3 == 2 else np.inf)
+        if tr.h.size == 0:
+            continue
+        assert tr.argmax() == tr.argmax(tr.t0, tr.t1), k

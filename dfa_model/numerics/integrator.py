@@ -24,7 +24,7 @@ from ..physics.equations import C_NB, C_NBORD, C_RS, C_SCHEME, NPOW, NREC, R_C, 
 from .kernels import diagnostics_b, factor_b, jacobian_b, rhs_b, solve_b
 from ..physics.nodal import NWORK
 from .records import dense_outputs, energy_step, record, step_nodes
-from .stepping import grow, grow_factor, shrink_factor
+from .stepping import grow, grow_factor, shrink_factor, worst
 from .stops import attracting, held, push, settle_event, sliding_point, stop_event, touching
 from .trbdf2 import (DG, E0, E1, E2, EV_PREV, EV_T, EV_WA, EV_WB, G_E, G_P0, G_P1, G_ROWS, GAMMA, I_AFTERJ, I_ETA, I_F, I_F0OK,
                      I_GHOLD, I_HFACT, I_HJUMP, I_HN, I_JOK, I_STOP, I_STUCK, INTERRUPTED, MAX_STEPS, N_COUNTERS,
@@ -59,7 +59,7 @@ def _wnorm(v, y, y2, scale, rtol, nbord):
     mx = 0.0
     for i in range(n):
         wt = rtol * (scale[i] + max(abs(y[i]), abs(y2[i])))
-        mx = max(mx, abs(v[i]) / wt)
+        mx = worst(mx, abs(v[i]) / wt)
     return mx
 
 

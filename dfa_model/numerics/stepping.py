@@ -14,6 +14,14 @@ GROW_MIN = 0.2      # ... and the least (an accepted step with an error near 1)
 
 
 @njit(cache=True, inline="always")
+def worst(a, b):
+    """max(a, b) for error norms, NaN kept: max() drops a NaN second argument (numba and
+    Python compare with >), so a norm over a state with one NaN component came out finite
+    and the step passed."""
+    return b if (b > a or b != b) else a
+
+
+@njit(cache=True, inline="always")
 def grow_factor(err, top=GROW_MAX):
     """The next step over this one after an accepted step with the scaled error err
     (<= 1): 0.9 err^(-1/3) (a third-order estimate), within [GROW_MIN, top]."""
