@@ -61,3 +61,24 @@ def test_load_as_function_of_time_and_spring(vshape81):
     x_eq = equilibrium_stroke(vshape81.replace(k=k), 6000, 3.0)
     assert abs(r.x[-1] / x_eq - 1) < 2e-3
     assert r.x[-1] < equilibrium_stroke(vshape81, 6000, 3.0)
+
+
+def test_segment_key_names_every_field_and_refuses_what_it_cannot_hash():
+    """The input segments' cache key (waveforms.segment_key): equal for equal fields, apart
+    for a field's value or name, None for a value it cannot hash or a waveform it does not
+    know."""
+    from dfa_model.waveforms import segment_key
+    k = segment_key(Protocol.reset_then_hold(6000.0, 20.0), Load(5.0))
+    assert k == segment_key(Protocol.reset_then_hold(6000.0, 20.0), Load(5.0)) and hash(k) == hash(k)
+    assert k != segment_key(Protocol.reset_then_hold(6000.0, 21.0), Load(5.0))
+    assert k != segment_key(Protocol.reset_then_hold(6000.0, 20.0), Load(4.0))
+    p = Protocol.reset_then_hold(6000.0, 20.0)
+    p.stages[0].waveform.duty = 0.9
+    assert segment_key(p, Load(5.0)) != k
+    p.stages[0].waveform.duty = [1.0]            # not hashable: not cached, not an error
+    assert segment_key(p, Load(5.0)) is None
+    # the same values under other names are another key
+    a, b = Protocol.dc(6000.0, 1.0), Protocol.dc(6000.0, 1.0)
+    a.stages[0].waveform.x = 1.0
+    b.stages[0].waveform.y = 1.0
+    assert segment_key(a, Load(0.0)) != segment_key(b, Load(0.0))

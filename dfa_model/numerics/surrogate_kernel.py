@@ -1166,10 +1166,13 @@ def _land(y, yt, xe, last, V_end, F_end, NY, hi):
 
 @njit(cache=True, _nrt=False)
 def _finite(y, NY):
+    """No NaN in y. An or over every entry, not a return at the first NaN: that loop
+    vectorizes (21 ns against 70 for the 174 states of the standard protocol's lattice,
+    once an accepted step)."""
+    bad = 0
     for i in range(NY):
-        if not (y[i] == y[i]):
-            return False
-    return True
+        bad |= y[i] != y[i]
+    return bad == 0
 
 
 @njit(cache=True, _nrt=False)
