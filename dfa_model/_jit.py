@@ -186,8 +186,12 @@ class Kernel:
     def serves(self, args) -> bool:
         """Whether the compiled export takes these arguments (it exists, and they have
         its types)."""
-        return (self._export is not None and len(args) == len(self._checks)
-                and all(check(a) for check, a in zip(self._checks, args)))
+        if self._export is None or len(args) != len(self._checks):
+            return False
+        for check, a in zip(self._checks, args):    # a loop, not all() over a generator: 3.0 -> 2.2 us
+            if not check(a):
+                return False
+        return True
 
     def __call__(self, *args):
         if self.serves(args):
