@@ -34,7 +34,7 @@ class StrokeTrace:
         t = np.asarray(t, float)
         x_start, x_stage, x_end = (np.asarray(v, float) for v in (x_start, x_stage, x_end))
         keep = self._knots(t, x_start.size)
-        a, g, b = x_start[keep], x_stage[keep], x_end[keep]
+        a, g, b = np.array(x_start[keep]), x_stage[keep], x_end[keep]   # c0 a copy (keep may be a slice)
         self.c2 = ((g - a) - gamma * (b - a)) / (gamma * gamma - gamma)
         self.c1 = b - a - self.c2
         self.c0 = a
@@ -109,7 +109,7 @@ class StrokeTrace:
         keep = self._knots(t, t.size - 1)
         # the linear pieces directly (a quadratic through a point on the line gave c2 at
         # round-off, not 0)
-        a, b = x[:-1][keep], x[1:][keep]
+        a, b = np.array(x[:-1][keep]), x[1:][keep]     # c0 a copy: not a view of the caller's samples
         self.c0, self.c1, self.c2 = a, b - a, np.zeros(a.size)
         self.lo, self.hi = -np.inf, np.inf
         self.__dict__["_vertices"] = (_NONE, _NONE)   # linear pieces: no interior vertices
