@@ -57,8 +57,8 @@ Steps: the Rosenbrock-W pair of Shampine's ode23s (L-stable, order 2, error at o
 restarted at every input breakpoint; in the lattice form without a mass a step of at least
 ROS_SWITCH of the stroke's time constants takes ROS34PW2 instead (_stages_ros34: order 3,
 stiffly accurate; the standard protocol's 20 s creep took 57 ode23s tries, 22 of them
-rejected, and takes about 30, 20 of them accepted; about 20, 18 accepted, with the
-steps sized from the balance too: OFF_ORDER), a step crosses at most LAT_CELLS of
+rejected, then about 30 with it, 20 of them accepted, and about 20, 18 accepted, with the
+steps sized from the stroke's balance too: OFF_ORDER), a step crosses at most LAT_CELLS of
 the tables' grid intervals, and the steps after landing on a stop resume at the size they
 had before the landing; the stops at 0 and x_e are events; a step moves the
 stroke by at most DX_STEP x_e, and without a mass a step that leaves the stroke off its
@@ -1344,9 +1344,9 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
                 F0[X] = 0.0
                 F0[VEL] = 0.0
             elif F0[X] != 0.0:
-                # the first try moves the stroke at most DX_FIRST of a step's most (DX_FIRST):
-                # at its start's rate, or, without a mass, towards a balance nearer than that
-                # (a polarity inversion's dip) not at all
+                # the first try moves the stroke, at its start's rate, by at most DX_FIRST of
+                # a step's most (_dx_bound); without a mass, not when it heads for a balance
+                # nearer than that (a polarity inversion's dip)
                 dx_first = DX_FIRST * _dx_bound(xe, tab, lat)
                 jxx = Jc[pos[X], pos[X]]
                 far = par[P_M] > 0.0 or jxx >= 0.0 or abs(F0[X]) > -jxx * dx_first
@@ -1404,9 +1404,10 @@ def _integrate(tb, v0, vs, f0, fs, w2, gof, y, tab, par, law, lawp, sc, rtol, h0
                 h_off = np.inf     # the next step's bound from the end's distance to the balance
                 if par[P_M] == 0.0 and mode == FREE and jxx < 0.0:
                     off = abs(F2[X]) / (-jxx * rtol * (abs(yt[X]) + sc[X]))   # in tolerances
-                    if lat and -jxx * hs >= RELAX:
+                    relaxed = -jxx * hs >= RELAX
+                    if lat and relaxed:
                         h_off = _off_bound(hs, off)
-                    if off > 1.0 and (F0[X] * F2[X] < 0.0 or -jxx * hs >= RELAX):
+                    if off > 1.0 and (F0[X] * F2[X] < 0.0 or relaxed):
                         err = max(err, 8.0)
                 if err <= 1.0:
                     shorter = _to_stop(y[X], yt[X], xe, hs, tries)
