@@ -49,12 +49,21 @@ from dfa_model.io.synthetic import scaled_resistivity
 
 from .model import apply, start
 from .timing import BOUND as TIMING_BOUND
+from .timing import GAIN_PRIOR, GAIN_STEP
 from .timing import STEPS as TIMING_STEPS
+from .timing import gains as timing_gains
 from .timing import nuisances as timing_nuisances
 
 SIGMA_REP = 0.05     # prior SD of log(rho_l) between repetitions
 DELTA_BOUND = 0.5    # |delta_i| at most (a factor 1.65)
 DECIMATE = 5
+# every sample this long after each switch of the drive (and one before) enters the fit too:
+# a release under load is over in ~2 ms (870 -> 5 um on the lab rig at 6 kV, 5 N), so one
+# sample in DECIMATE saw it at most once, and a unipolar train's off-switches did not time
+# its drive - the line through its switches (timing.py) pinned by the on-switches' zipping
+# and the priors missed the releases by 0.1-0.2 ms: 100 um spikes, a null's held out 1.91
+# um against 1.04 um noise with an exact voltage monitor
+SWITCH_SAMPLES = 6e-3
 OFFSET_PRIOR = 20e-6 # prior SD of a sensor's zero offset (m)
 TIME_PRIOR = 0.2e-3  # prior SD of a recording's timing between the drive and the sensor (s)
 NUISANCES = 3       # unknowns per recording: its resistivity factor, sensor zero and timing (align)
@@ -313,33 +322,68 @@ class Problem:
     prior row per recording's log resistivity factor (delta / sigma_rep), with a common
     level in the fit the zero-sum pin of the factors, and one prior row per timing
     nuisance (timing.py: value / prior SD). The timing nuisances, `tz`, are one flat array
-    in recording order (keys[j] of recording j; None: every one as read)."""
+    in recording order (keys[j] of recording j; None: every one as read). The monitors'
+    gains (timing.gains) are in it as contrasts: a condition's n - 1 coordinates under the
+    key "gain" of its recordings but the first, each recording's own gain the contrasts'
+    combination (timing())."""
 
     def __init__(self, recs, runner, sigma, sigma_rep, decimate, pin):
         self.recs, self.runner, self.sigma, self.sigma_rep = recs, runner, sigma, sigma_rep
-        self.idx = [np.arange(0, len(r.t), decimate) for r in recs]
+        self.idx = [fit_samples(r, decimate) for r in recs]
         self.times = [sample_times(r.t) for r in recs]
         self.offs = np.concatenate([[0], np.cumsum([len(i) for i in self.idx])])
         self.n, self.R, self.pin = int(self.offs[-1]), len(recs), int(pin)
         priors = [timing_nuisances(r) for r in recs]
+        groups = timing_gains(recs)
+        for js, _ in groups:
+            for j in js[1:]:
+                priors[j]["gain"] = GAIN_PRIOR
         self.keys = [list(q) for q in priors]
         self.prior = np.array([v for q in priors for v in q.values()], float)
         self.toffs = np.concatenate([[0], np.cumsum([len(k) for k in self.keys])]).astype(int)
         self.T = int(self.toffs[-1])
+        # each condition's gains: (its recordings, contrasts, the contrasts' places in tz)
+        self.gains = [(js, C, np.array([self.toffs[j] + self.keys[j].index("gain") for j in js[1:]]))
+                      for js, C in groups]
 
     def flat_timing(self, timing: dict | None):
-        """The flat tz of {recording: {key: value}} (FitResult.timing; a nuisance it lacks
-        at 0, as read), or None without it."""
+        """The flat tz of {recording: {key: value}} (FitResult.timing, each recording's own
+        gain among them; a nuisance it lacks at 0, as read), or None without it."""
         if not timing or not self.T:
             return None
-        return np.array([timing.get(r.name, {}).get(key, 0.0) for r, ks in zip(self.recs, self.keys) for key in ks],
-                        float)
+        tz = np.array([timing.get(r.name, {}).get(key, 0.0) for r, ks in zip(self.recs, self.keys) for key in ks],
+                      float)
+        for js, C, at in self.gains:
+            tz[at] = C.T @ np.array([timing.get(self.recs[j].name, {}).get("gain", 0.0) for j in js])
+        return tz
 
     def timing(self, tz) -> list:
-        """Each recording's timing nuisances {key: value} from the flat tz."""
+        """Each recording's timing nuisances {key: value} from the flat tz, with its own
+        gain (the contrasts' combination) under "gain"."""
         if tz is None:
             return [{} for _ in self.recs]
-        return [dict(zip(k, map(float, tz[a:b]))) for k, a, b in zip(self.keys, self.toffs[:-1], self.toffs[1:])]
+        out = [dict(zip(k, map(float, tz[a:b]))) for k, a, b in zip(self.keys, self.toffs[:-1], self.toffs[1:])]
+        for js, C, at in self.gains:
+            for j, g in zip(js, C @ np.asarray(tz, float)[at]):
+                out[j]["gain"] = float(g)
+        return out
+
+    def gain_columns(self, d, hs) -> tuple:
+        """The Jacobian's gain columns as COO (rows, cols, values; cols in tz), from `d`, the
+        residuals' change along a step hs[c] of every condition c's last contrast
+        (timing.helmert: nonzero in each recording): recording j's rows of the column of
+        contrast m are C[j, m] times its own change over its own step, h C[j, -1]."""
+        rows, cols, vals = [], [], []
+        for (js, C, at), h in zip(self.gains, hs):
+            for i, j in enumerate(js):
+                sl = slice(self.offs[j], self.offs[j + 1])
+                per = d[sl] / (h * C[i, -1])
+                for m, col in enumerate(at):
+                    if C[i, m]:
+                        rows.append(np.arange(self.offs[j], self.offs[j + 1]))
+                        cols.append(np.full(self.offs[j + 1] - self.offs[j], col))
+                        vals.append(C[i, m] * per)
+        return rows, cols, vals
 
     def jobs(self, p: Parameters, deltas, rtol=FIT_RTOL, tz=None) -> list:
         """The runs of `runs` as jobs for a Runner (to batch several in one call)."""
@@ -380,6 +424,21 @@ class Problem:
         if self.pin:
             out[n + R] = PIN * np.sum(deltas) / self.sigma_rep
         return out
+
+
+def fit_samples(rec, decimate: int) -> np.ndarray:
+    """The samples of `rec` a fit uses: every `decimate`-th, and every one from a sample
+    before each switch of its drive to SWITCH_SAMPLES after it (the transients that time
+    the drive: SWITCH_SAMPLES), in order."""
+    idx = np.arange(0, len(rec.t), decimate)
+    if rec.switches is None or not len(rec.switches) or decimate <= 1:
+        return idx
+    dt = float(rec.t[1] - rec.t[0]) if len(rec.t) > 1 else 1.0
+    near = np.zeros(len(rec.t), bool)
+    for a, b in zip(np.searchsorted(rec.t, rec.switches - dt), np.searchsorted(rec.t, rec.switches + SWITCH_SAMPLES)):
+        near[a:b] = True
+    near[idx] = True
+    return np.flatnonzero(near)
 
 
 def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0=None, t0=None):
@@ -478,6 +537,17 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
                 xp[k + R + i] += steps[j]
             timing.append((which, steps, len(points)))
             points.append(xp)
+        gain_at, gain_h = None, []
+        if prob.gains:
+            # every condition's gains at once, along its last contrast (prob.gain_columns);
+            # backwards where the step forwards would cross the bound
+            xp = x.copy()
+            for _, _, at in prob.gains:
+                i = k + R + at[-1]
+                gain_h.append(GAIN_STEP if x[i] + GAIN_STEP <= hi[i] else -GAIN_STEP)
+                xp[i] += gain_h[-1]
+            gain_at = len(points)
+            points.append(xp)
         fs = fun_many(points) if points else []
         rows, cols, vals = [], [], []
         for i in range(k):
@@ -501,6 +571,12 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
                 rows += [np.arange(offs[j], offs[j + 1]), [n + R + pin + i]]
                 cols += [np.full(offs[j + 1] - offs[j], k + R + i), [k + R + i]]
                 vals += [d[offs[j]:offs[j + 1]] / steps[j], [1.0 / prob.prior[i]]]
+        if gain_at is not None:
+            gr, gc, gv = prob.gain_columns(fs[gain_at] - f0, gain_h)
+            ats = np.concatenate([at for _, _, at in prob.gains])
+            rows += gr + [n + R + pin + ats]
+            cols += [k + R + c for c in gc] + [k + R + ats]
+            vals += gv + [1.0 / prob.prior[ats]]
         J = csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                        shape=(n + R + pin + T, k + R + T))
         return J.toarray() if dense else J

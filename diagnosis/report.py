@@ -11,6 +11,9 @@ from dfa_model.io.fileio import write_atomic, write_text_atomic
 
 from .improved import entry_parameters, raised_phrases, write_improved, write_protocols
 from .levels import LEVEL_STEPS
+from .timing import GAIN_PRIOR, TIMING
+
+GAIN_LOUD = 2.0   # a monitor gain this many prior SDs off its condition's mean is named in the conclusion
 
 HOLD_MIN = 2.0      # s: a hold (or one-polarity stretch) shorter than this keeps the charge near zero
 
@@ -72,7 +75,8 @@ def to_json(D) -> dict:
         "unexplained": unexplained(D),
         "resolution": D.resolution,
         "resolution_first": D.raised,
-        "drive_timing": D.final.timing or None,
+        "drive_timing": drive_timing(D) or None,
+        "monitor_gain": monitor_gain(D) or None,
         "zeros_fitted": zeros_fitted(D) or None,
         "charge_hidden": charge_hidden(D) or None,
         "headline": headline(D),
@@ -199,11 +203,17 @@ def conclusion(D) -> str:
     else:
         parts.append("no missing physics found")
     parts += raised_phrases(D.raised)
-    timed = D.final.timing
+    timed = drive_timing(D)
     if timed:
         parts.append(f"the drive's timing was fitted with the model in {len(timed)} of {len(D.dataset.recordings)} "
                      f"recordings (their drives' switches or hold starts, read off the voltage record to within a "
                      f"sample: drive_timing)")
+    off = {r: g for r, g in monitor_gain(D).items() if abs(g) >= GAIN_LOUD * GAIN_PRIOR}
+    if off:
+        lo, hi = min(off.values()), max(off.values())
+        parts.append(f"the voltage monitor read {len(off)} recording(s) {lo:+.2%}" + (f" to {hi:+.2%}" if hi > lo else "")
+                     + f" off its condition's other repetitions (its gain, fitted with the model: monitor_gain; "
+                     f"prior SD {GAIN_PRIOR:.1%}): check its calibration")
     r = D.resolution
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "
@@ -278,6 +288,20 @@ def tried(D) -> dict:
                 out[key] = {"fitted": False, "round": i + 1, "predicted_delta_bic": sc.get("predicted_delta_bic"),
                             "predicted_heldout_ratio": sc.get("heldout_ratio"), "why": why}
     return out
+
+
+def drive_timing(D) -> dict:
+    """Each recording's drive timing as the final model fitted it (timing.TIMING's keys
+    it has; the monitor's gain apart: monitor_gain)."""
+    return {r: {k: v for k, v in tm.items() if k in TIMING} for r, tm in (D.final.timing or {}).items()
+            if any(k in TIMING for k in tm)}
+
+
+def monitor_gain(D) -> dict:
+    """Each recording's voltage monitor gain as the final model fitted it, relative to its
+    condition's mean (the drive the actuator saw is the read one over 1 + gain; only the
+    differences between a condition's repetitions are a nuisance: diagnosis/timing.py)."""
+    return {r: tm["gain"] for r, tm in (D.final.timing or {}).items() if "gain" in tm}
 
 
 def zeros_fitted(D) -> list:

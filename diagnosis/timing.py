@@ -14,10 +14,26 @@ every fit (fit._solve), like its resistivity factor: the reset's `shift`, its ge
 was read (nuisances()).
 Fitted once on the baseline instead, it took up what a missing entry does right after a
 switch (a mass's lag: inertia then left 11.9 um held out on a trial dataset against 4.3
-with the timing as read; a series resistance's charging delay: R_s 8.2e5 for 1e6)."""
+with the timing as read; a series resistance's charging delay: R_s 8.2e5 for 1e6).
+
+The drive's level is read off the same record, through the voltage monitor, whose gain is
+a calibration (a high-voltage amplifier's monitor output or a divider is specified to
+0.1-1 %). V^2 sets the force: the lab rig's 0.2 % per recording (issue 24) is 0.4 % of the
+force, and the baseline at the truth's own physics left 2.84 um held out on a unipolar null
+(0.84 um noise), 1.36 um with the monitor exact. Each recording's gain (recordings.retimed:
+the drive is the read levels over 1 + gain) is a nuisance of every fit too, but only as it
+differs between a condition's repetitions (gains(): zero-sum contrasts per condition). What
+a condition's recordings share stays the physics': free in every recording, even under a
+prior, the gains of a 3 N and a 7 N condition took up most of a nominal t_lz 30 % off (held
+out 19.4 -> 3.2 um before any correction), and relative to a condition's first recording
+(its mean still free) a stiffness proof named a polarization branch. The lab rig's drawn
+gains, replaced by each condition's mean, left that null at 1.67 um (2.08 before the
+switches' samples entered the fits: fit.SWITCH_SAMPLES)."""
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 CLOCK_MIN_SWITCHES = 3   # a clock rate needs the reset's switches at three instants or more to show
 GRID_PINNED = 20       # a reset put on a grid (recordings._regular_switches) by this many switches or more has its
@@ -25,6 +41,10 @@ GRID_PINNED = 20       # a reset put on a grid (recordings._regular_switches) by
 #                        off: 0.04 ms for a 30 Hz reset of 3 s, 0.3 ms for a 4 Hz one of 1 s)
 CLOCK_PRIOR = 1e-3     # prior SD of a drive's clock rate error (relative)
 STEPS = {"shift": 5e-5, "clock": 1e-4, "hold_shift": 5e-5}   # difference steps (s, relative, s)
+TIMING = tuple(STEPS)  # the nuisances that move the switches (the gain moves the levels)
+GAIN_PRIOR = 5e-3      # prior SD of a voltage monitor's gain error (relative: a calibration's 0.5 %)
+GAIN_STEP = 2e-3       # difference step of a gain contrast (0.4-1.6 e-3 of a recording's level: above the
+#                        integration's roughness at the fits' tolerance, well inside the prior)
 BOUND = 5.0            # each nuisance within this many prior SDs
 
 
@@ -53,3 +73,28 @@ def nuisances(rec) -> dict:
         out["clock"] = CLOCK_PRIOR
     out["hold_shift"] = sd
     return out
+
+
+def gains(recs) -> list:
+    """The monitors' gain nuisances of recordings `recs`: for each condition with two or
+    more recordings whose drive was read off their record, (their indices in recs, C) with
+    C orthonormal contrasts (n x n-1, columns orthogonal to ones: Helmert's). The gains are
+    C a: they sum to zero over the condition, and a ~ N(0, GAIN_PRIOR^2) i.i.d. is the
+    per-recording prior restricted to that subspace."""
+    by = {}
+    for j, r in enumerate(recs):
+        if r.switches is not None and len(r.switches) and any(r.levels):
+            by.setdefault(r.condition(), []).append(j)
+    return [(js, helmert(len(js))) for js in by.values() if len(js) >= 2]
+
+
+def helmert(n: int) -> np.ndarray:
+    """n x (n-1) orthonormal contrasts: column m is (1, ..., 1, -(m+1), 0, ...) / norm,
+    m + 1 ones; the last column is nonzero in every row (fit._solve times every gain
+    from a step along it)."""
+    C = np.zeros((n, n - 1))
+    for m in range(n - 1):
+        C[:m + 1, m] = 1.0
+        C[m + 1, m] = -(m + 1.0)
+        C[:, m] /= math.sqrt((m + 1.0) * (m + 2.0))
+    return C

@@ -794,7 +794,8 @@ def _drive(rec: Recording) -> None:
     rec.protocol = Protocol(stages)
 
 
-def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: float = 0.0) -> Recording:
+def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: float = 0.0,
+            gain: float = 0.0) -> Recording:
     """A copy of rec whose drive ran on other timing than read off its voltage record:
     the reset's switches (all but the last) `shift` seconds later and stretched by
     (1 + clock) about the first one (its generator's clock `clock` slower than the
@@ -803,17 +804,24 @@ def retimed(rec: Recording, clock: float = 0.0, hold_shift: float = 0.0, shift: 
     1 kHz record of a few switches cannot show it (8 switches of a 2 Hz train drift by
     0.6 ms in all at 3.5e-4, less than a sample), nor a switch within its sample, and the
     zipping each switch starts moves at ~1 m/s (the diagnosis fits them from the stroke:
-    diagnosis/timing.py)."""
+    diagnosis/timing.py). `gain`: the voltage monitor read the levels (1 + gain) times
+    what the actuator saw (its calibration): the drive is the read levels over 1 + gain."""
     if rec.switches is None or len(rec.switches) == 0:
         return replace(rec)
+    if not -0.5 < gain < 0.5:
+        raise RecordingError(f"{rec.name}: the voltage monitor's gain corrected by {gain:g}; expected a small "
+                             f"correction (|gain| < 0.5)")
     sw = rec.switches.copy()
-    if len(sw) > 1:
-        sw[:-1] = sw[0] + shift + (sw[:-1] - sw[0]) * (1.0 + clock)
-    sw[-1] += hold_shift
-    if not (np.all(np.diff(sw) > 0) and 0.0 < sw[0] and sw[-1] < rec.duration):
-        raise RecordingError(f"{rec.name}: the drive's timing corrected by {shift:g} s, {clock:g} and {hold_shift:g} s "
-                             f"puts its switches out of order or outside the recording; expected small corrections")
-    out = replace(rec, switches=sw, notes=list(rec.notes))
+    if clock or shift or hold_shift:
+        if len(sw) > 1:
+            sw[:-1] = sw[0] + shift + (sw[:-1] - sw[0]) * (1.0 + clock)
+        sw[-1] += hold_shift
+        if not (np.all(np.diff(sw) > 0) and 0.0 < sw[0] and sw[-1] < rec.duration):
+            raise RecordingError(f"{rec.name}: the drive's timing corrected by {shift:g} s, {clock:g} and "
+                                 f"{hold_shift:g} s puts its switches out of order or outside the recording; expected "
+                                 f"small corrections")
+    levels = rec.levels if not gain else tuple(float(v) / (1.0 + gain) for v in rec.levels)
+    out = replace(rec, switches=sw, levels=levels, notes=list(rec.notes))
     _drive(out)
     return out
 
