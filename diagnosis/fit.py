@@ -10,11 +10,14 @@ Unknowns:
   stop (a pre-trigger stretch at 0 V, the first sample, a complete unzip), with a prior
   (sensor_offset) - not the mean residual, which would swallow a static-stroke mismatch;
 - per recording, its timing between the drive and the sensor (align): a fraction of a
-  millisecond, which the zipping transient right after the first switch shows.
+  millisecond, which the zipping transient right after the first switch shows;
+- per recording with switches, its drive's timing, and its voltage monitor's gain as it
+  differs from its condition's other repetitions (diagnosis/timing.py).
 
 Cost: sum over training samples of (residual / sigma)^2 + sum delta_i^2 / sigma_rep^2, sigma
 the sensor noise estimated from the data (noise_level). Every `decimate`-th sample enters
-the fit (the noise is white at 1 kHz; the stroke is smooth on that scale); errors are
+the fit (the noise is white at 1 kHz; the stroke is smooth on that scale), and every one
+of each switch's transient (fit_samples); errors are
 reported on all samples. Solver: scipy.optimize.least_squares (trust region, bounds), its
 Jacobian by forward differences with the problem's sparsity (a recording's residuals
 depend on the globals and its own delta only), each evaluation one batch of full-model

@@ -19,16 +19,16 @@ with the timing as read; a series resistance's charging delay: R_s 8.2e5 for 1e6
 The drive's level is read off the same record, through the voltage monitor, whose gain is
 a calibration (a high-voltage amplifier's monitor output or a divider is specified to
 0.1-1 %). V^2 sets the force: the lab rig's 0.2 % per recording (issue 24) is 0.4 % of the
-force, and the baseline at the truth's own physics left 2.84 um held out on a unipolar null
-(0.84 um noise), 1.36 um with the monitor exact. Each recording's gain (recordings.retimed:
-the drive is the read levels over 1 + gain) is a nuisance of every fit too, but only as it
-differs between a condition's repetitions (gains(): zero-sum contrasts per condition). What
-a condition's recordings share stays the physics': free in every recording, even under a
-prior, the gains of a 3 N and a 7 N condition took up most of a nominal t_lz 30 % off (held
-out 19.4 -> 3.2 um before any correction), and relative to a condition's first recording
-(its mean still free) a stiffness proof named a polarization branch. The lab rig's drawn
-gains, replaced by each condition's mean, left that null at 1.67 um (2.08 before the
-switches' samples entered the fits: fit.SWITCH_SAMPLES)."""
+force: on a unipolar null (1.03 um noise as drawn) the baseline left 2.84 um held out,
+1.36 um with the monitor exact. Each recording's gain (recordings.retimed: the drive is the
+read levels over 1 + gain) is a nuisance of every fit too, but only as it differs between a
+condition's repetitions (gains(): zero-sum contrasts per condition); fitted so, 1.67 um, as
+with the drawn gains replaced by each condition's mean, and each gain within 0.01 % of its
+drawn difference. What a condition's recordings share stays the physics': free in every
+recording, even under a prior, the gains of a 3 N and a 7 N condition took up most of a
+nominal t_lz 30 % off (held out 19.4 -> 3.2 um before any correction), and relative to a
+condition's first recording (its mean still free) a stiffness proof named a polarization
+branch."""
 from __future__ import annotations
 
 import math
