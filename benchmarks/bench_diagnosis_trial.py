@@ -193,9 +193,10 @@ def main(argv=None):
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default="trial.jsonl")
     ap.add_argument("--N", type=int, default=21, help="the fit's N (the nominal actuator's)")
-    ap.add_argument("--rig", choices=["ideal", "lab"], default="ideal",
-                    help="diagnosis.proofs.RIGS: ideal (truth at the fit's N) or lab (truth at 4x N, lab channels, "
-                         "no rest stretch; the drawn noise replaces the rig's 2 um)")
+    ap.add_argument("--rig", choices=["ideal", "lab", "lab_fine"], default="ideal",
+                    help="diagnosis.proofs.RIGS: ideal (truth at the fit's N), lab (truth at 4x N, lab channels, "
+                         "no rest stretch; the drawn noise replaces the rig's 2 um) or lab_fine (lab, the truth at 31x "
+                         "N: converged)")
     ap.add_argument("--drive", choices=["reset_hold", "inversion", "unipolar"], default="reset_hold")
     ap.add_argument("--sizes", choices=["ideal", "revealed"], default="ideal",
                     help="ideal: every entry at 1-4x what the ideal rig's reset + hold conceals (RANGES); revealed: "
