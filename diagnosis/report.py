@@ -213,7 +213,8 @@ def conclusion(D) -> str:
         lo, hi = min(off.values()), max(off.values())
         parts.append(f"the voltage monitor read {len(off)} recording(s) {lo:+.2%}" + (f" to {hi:+.2%}" if hi > lo else "")
                      + f" off its condition's other repetitions (its gain, fitted with the model: monitor_gain; "
-                     f"prior SD {GAIN_PRIOR:.1%}): check its calibration")
+                     f"prior SD {GAIN_PRIOR:.1%}): check its calibration, or what else differs between those "
+                     f"repetitions (the gains take up any force the model misses in one of them)")
     r = D.resolution
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "
