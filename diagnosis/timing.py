@@ -43,6 +43,7 @@ CLOCK_PRIOR = 1e-3     # prior SD of a drive's clock rate error (relative)
 STEPS = {"shift": 5e-5, "clock": 1e-4, "hold_shift": 5e-5}   # difference steps (s, relative, s)
 TIMING = tuple(STEPS)  # the nuisances that move the switches (the gain moves the levels)
 GAIN_PRIOR = 5e-3      # prior SD of a voltage monitor's gain error (relative: a calibration's 0.5 %)
+GAIN_HOLD = 2.0        # s of the drive's last level a recording needs for its gain to be a nuisance (gains())
 GAIN_STEP = 2e-3       # difference step of a gain contrast (0.4-1.6 e-3 of a recording's level: above the
 #                        integration's roughness at the fits' tolerance, well inside the prior)
 BOUND = 5.0            # each nuisance within this many prior SDs
@@ -80,10 +81,15 @@ def gains(recs) -> list:
     more recordings whose drive was read off their record, (their indices in recs, C) with
     C orthonormal contrasts (n x n-1, columns orthogonal to ones: Helmert's). The gains are
     C a: they sum to zero over the condition, and a ~ N(0, GAIN_PRIOR^2) i.i.d. is the
-    per-recording prior restricted to that subspace."""
+    per-recording prior restricted to that subspace. Only recordings that hold their last
+    level GAIN_HOLD s or more: under a polarity inversion throughout, with no rest before
+    it, the fitted sensor zero takes up the static stroke a gain sets, the gain shows only in
+    the switches' transients, and on the lab rig's nulls it wandered to 2-2.8 % (4-6 prior
+    SDs) there, with no verdict better for it (the draws of record on the converged truth,
+    2026-11-29)."""
     by = {}
     for j, r in enumerate(recs):
-        if r.switches is not None and len(r.switches) and any(r.levels):
+        if r.switches is not None and len(r.switches) and r.levels[-1] and r.duration - r.reset_end >= GAIN_HOLD:
             by.setdefault(r.condition(), []).append(j)
     return [(js, helmert(len(js))) for js in by.values() if len(js) >= 2]
 

@@ -201,3 +201,19 @@ def test_the_monitors_gains_differ_only_between_a_conditions_repetitions(tmp_pat
     f0 = fit(ds, spec, holdout=[])
     assert all("gain" not in tm for tm in f0.timing.values())
     assert f1.train_rmse < 0.8 * f0.train_rmse, (f0.train_rmse, f1.train_rmse)
+
+
+def test_a_gain_is_a_nuisance_only_where_a_hold_reveals_it(tmp_path):
+    """Under a polarity inversion throughout (no rest, no hold) the fitted sensor zero takes
+    up the static stroke a gain sets: no gains there (timing.GAIN_HOLD); after unipolar
+    pulses and a 3 s hold, one per condition's repetition but the first."""
+    from diagnosis.timing import GAIN_HOLD, gains
+    uni, _ = _lab_unipolar(tmp_path / "uni", reset=1.0, hold=3.0, noise=1e-6, seed=3)
+    assert sorted(len(js) for js, _ in gains(uni.recordings)) == [2, 2]
+    nominal = preset("vshape-table1").replace(N=21, rho_l=3e12)
+    meas = Measurement(noise=1e-6, voltage_gain=0.002, voltage_noise=10.0)
+    generate_dataset(tmp_path / "inv", nominal.replace(rho_l=2e12), nominal, [(6000.0, 3.0)], repetitions=3,
+                     reset=0.0, hold=4.0, measurement=meas, seed=3, pretrigger=0.0, drive="inversion")
+    inv = read_dataset(tmp_path / "inv")
+    assert all(r.duration - r.reset_end < GAIN_HOLD for r in inv.recordings)
+    assert gains(inv.recordings) == []
