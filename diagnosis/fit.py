@@ -379,13 +379,12 @@ class Problem:
         rows, cols, vals = [], [], []
         for (js, C, at), h in zip(self.gains, hs):
             for i, j in enumerate(js):
-                sl = slice(self.offs[j], self.offs[j + 1])
-                per = d[sl] / (h * C[i, -1])
-                for m, col in enumerate(at):
-                    if C[i, m]:
-                        rows.append(np.arange(self.offs[j], self.offs[j + 1]))
-                        cols.append(np.full(self.offs[j + 1] - self.offs[j], col))
-                        vals.append(C[i, m] * per)
+                a, b = self.offs[j], self.offs[j + 1]
+                per = d[a:b] / (h * C[i, -1])
+                for m in np.flatnonzero(C[i]):
+                    rows.append(np.arange(a, b))
+                    cols.append(np.full(b - a, at[m]))
+                    vals.append(C[i, m] * per)
         return rows, cols, vals
 
     def jobs(self, p: Parameters, deltas, rtol=FIT_RTOL, tz=None) -> list:
@@ -436,9 +435,8 @@ def fit_samples(rec, decimate: int) -> np.ndarray:
     idx = np.arange(0, len(rec.t), decimate)
     if rec.switches is None or not len(rec.switches) or decimate <= 1:
         return idx
-    dt = float(rec.t[1] - rec.t[0]) if len(rec.t) > 1 else 1.0
     near = np.zeros(len(rec.t), bool)
-    for a, b in zip(np.searchsorted(rec.t, rec.switches - dt), np.searchsorted(rec.t, rec.switches + SWITCH_SAMPLES)):
+    for a, b in zip(np.searchsorted(rec.t, rec.switches - rec.dt), np.searchsorted(rec.t, rec.switches + SWITCH_SAMPLES)):
         near[a:b] = True
     near[idx] = True
     return np.flatnonzero(near)
