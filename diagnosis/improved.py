@@ -157,7 +157,7 @@ def write_protocols(D, out: Path) -> dict:
     folder.mkdir(parents=True, exist_ok=True)
     paths = {}
     for r in D.dataset.recordings:
-        name = f"{Path(r.name).stem}.toml"
+        name = f"{r.name}.toml"      # r.name is its file's stem already: V6.5kV_F1N_r1 keeps its ".5..."
         Protocol(list(r.protocol.stages), load=r.load).save(
             folder / name, header=[f"the drive and load of recording {r.path.name} as dfa diagnose read them "
                                    f"(levels switched at the voltage's threshold crossings)",

@@ -545,3 +545,26 @@ def test_an_entry_that_fits_only_the_trained_conditions_is_said_so():
     out = training_only(rows, s, 4.79e-6)
     assert [r["candidate"] for r in out] == ["law"]
     assert training_only(rows, s, None) == []
+
+
+def test_each_recording_gets_its_own_protocol_file_even_with_a_dot_in_its_name(tmp_path):
+    """Recordings are named by their files' stems; a voltage written 6.5kV put a dot in
+    them, and cutting a suffix off again wrote every recording's protocol to V6.toml."""
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from dfa_model.io.recordings import Recording, _drive
+    from dfa_model.waveforms import Load, Protocol
+    from diagnosis.improved import write_protocols
+    recs = []
+    for F in (1.0, 2.0):
+        t = np.arange(0.0, 2.0005, 1e-3)
+        r = Recording(f"V6.5kV_F{F:g}N_r1", Path(f"V6.5kV_F{F:g}N_r1.csv"), t, t * 0, t * 0, t * 0, None,
+                      np.arange(t.size))
+        r.switches, r.levels, r.load = np.array([0.5]), (0.0, 6500.0), Load(F)
+        _drive(r)
+        recs.append(r)
+    paths = write_protocols(SimpleNamespace(dataset=SimpleNamespace(recordings=recs)), tmp_path)
+    assert paths == {r.name: f"protocols/{r.name}.toml" for r in recs}
+    for r in recs:
+        assert Protocol.from_toml(tmp_path / paths[r.name]).load.F == pytest.approx(r.load.F)
