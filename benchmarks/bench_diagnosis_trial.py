@@ -154,6 +154,8 @@ def run_one(case: dict) -> dict:
             "conclusion": report["conclusion"],
             "parameters": {k: v for m in report["missing_physics"] for k, v in m["parameters"].items()},
             "corrected": [k for k, v in report["corrected_parameters"].items() if v["corrected"] and k != "rho_l"],
+            # the discretization checks' records: why an entry stood or was dropped, at which N
+            "resolution": report["resolution"], "resolution_first": report["resolution_first"],
             "wall_time": time.perf_counter() - wall}
 
 
