@@ -219,7 +219,7 @@ def conclusion(D) -> str:
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "
                      f"{r['measure']} error by {r['gain']:.0%} at N = {r['N']}, by {r['gain_fine']:.0%} at "
-                     f"N = {r['N_fine']}): the data ask for a finer N, not this entry")
+                     f"N = {r['N_fine']}{_first_check(r)}): the data ask for a finer N, not this entry")
     elif r and r.get("refined"):
         gone = [m for m in r.get("marginal", []) if m["dropped"] and not m.get("later")]
         later = [m for m in r.get("marginal", []) if m["dropped"] and m.get("later")]
@@ -238,7 +238,7 @@ def conclusion(D) -> str:
         elif not later:
             parts.append(f"the final model is at N = {r['N_fine']} (N = {r['N']} left its own discretization error: "
                          f"{r['kept_rmse'] * 1e6:.3g} um {r['measure']} RMSE against "
-                         f"{r['kept_fine_rmse'] * 1e6:.3g} um)")
+                         f"{r['kept_fine_rmse'] * 1e6:.3g} um{_first_check(r)})")
     blind = zeros_fitted(D)
     if blind and len(blind) == len(D.dataset.recordings) and "stiffness" not in phys:
         parts.append(f"the sensor zeros were fitted in all {len(blind)} recordings (the model never rests on its "
@@ -705,3 +705,13 @@ def write(D, out) -> dict:
     write_text_atomic(out / "report.md", to_markdown(D, report, plots))
     write_text_atomic(out / "report.json", json.dumps(report, indent=1))
     return report
+
+
+def _first_check(r: dict) -> str:
+    """The resolution check's first finer N, when the kept entries' cut shrank there and it
+    was made again at twice those elements (diagnose._cut_shrinks), as a phrase."""
+    fc = r.get("first_check")
+    if not fc:
+        return ""
+    return (f"; at N = {fc['N']} the squared error it removed was {fc['cut_ratio']:.0%} of that at N = {r['N']}, "
+            f"so it was checked again at N = {r['N_fine']}")

@@ -393,6 +393,54 @@ def test_an_entry_is_checked_deeper_when_the_rest_is_not_resolved(monkeypatch):
             assert ((270, 21) in evaluated) == (budget > 0)   # no doublings left: not even evaluated
 
 
+def test_a_cut_that_shrinks_with_the_elements_is_checked_at_twice_those(monkeypatch):
+    """_cut_shrinks: on a null dataset under polarity inversion with a converged truth
+    (lab_fine, 651 points) a polarization branch kept at N = 21 cut the held-out error 2.07
+    -> 1.55 um (1.30 um noise); at N = 41 1.80 -> 1.47 um, a relative gain of 0.73 of
+    itself, which RES_SHRINK passes, but only 57 % of the squared error it had removed; at
+    N = 81 1.57 -> 1.40 um (11 %, under half of 25 %): dropped there. An exponential law
+    on an inversion dataset removed 64 % as much at N = 41 (3.37 -> 2.24 um at 21, 2.83 ->
+    1.98 at 41) and holds at 81 (2.56 -> 1.64 um): the final model is at N = 81. A cut that
+    holds at 41, or no doublings left, leaves the check at 41. The numbers are those runs';
+    the fits stubbed."""
+    dg = _stubbed_diagnose(monkeypatch)
+    entry = _entry("polarization_branch")
+    res = partial(_stubbed_fit, sigma=1.26e-6)
+    base = preset("vshape-table1").replace(N=21)
+    cases = {   # name: (f0, kept at 21, [(baseline, kept point, kept refit) at 41, at 81], budget)
+        "null": ((2.07e-6, 1.55e-6), [(1.80e-6, 1.50e-6, 1.47e-6), (1.57e-6, 1.42e-6, 1.40e-6)], 2),
+        "null, no doubling left": ((2.07e-6, 1.55e-6), [(1.80e-6, 1.50e-6, 1.47e-6)], 0),
+        "law": ((3.37e-6, 2.24e-6), [(2.83e-6, 2.05e-6, 1.98e-6), (2.56e-6, 1.70e-6, 1.64e-6)], 2),
+        "cut holds": ((3.37e-6, 2.24e-6), [(2.83e-6, 1.40e-6, 1.38e-6)], 2),
+    }
+    for name, ((e0, ek), levels, budget) in cases.items():
+        f0, current = res(e0, 0.0, 21), res(ek, -900.0, 21)
+        points = {41 if i == 0 else 81: lv[1] for i, lv in enumerate(levels)}
+        monkeypatch.setattr(dg, "evaluate", lambda ds, fr, params, executor=None: res(points[params.N], -1300.0,
+                                                                                       params.N))
+        order = []
+        for i, (b, _, k) in enumerate(levels):
+            n = 41 if i == 0 else 81
+            order += [res(b, -400.0, n), res(k, -1400.0, n)]
+        fits = iter(order)
+        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        said = []
+        kept, final, rec = dg._resolution_check(None, base, None, [entry], current, f0, None, None, said.append,
+                                                budget=budget)
+        if name == "null":
+            assert kept == [] and rec["resolution_only"] and rec["N_fine"] == 81, rec
+            assert rec["first_check"]["N"] == 41 and rec["first_check"]["cut_ratio"] == pytest.approx(0.566, abs=0.01)
+            assert final.params.N == 81 and final.heldout_rmse == 1.57e-6
+            assert any("again at N = 81" in s for s in said)
+        elif name == "law":
+            assert kept == [entry] and rec["refined"] and final.params.N == 81 and final.heldout_rmse == 1.64e-6
+            assert rec["N_fine"] == 81 and rec["first_check"]["cut_ratio"] == pytest.approx(0.644, abs=0.01)
+        else:   # the check at 41 stands: kept, the final model refitted there
+            assert kept == [entry] and rec["N_fine"] == 41 and "first_check" not in rec, (name, rec)
+            assert final.params.N == 41
+        assert next(fits, None) is None          # every stubbed fit was made: no more
+
+
 def test_close_rivals_are_compared_at_twice_the_elements(monkeypatch):
     """_tie_break: a slow branch beat the spline law at N = 41 by a BIC fall of 28859
     against 27374 (lab rig, a power-law truth) and was named; at N = 81 the spline fitted
