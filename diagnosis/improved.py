@@ -182,7 +182,9 @@ def raised_phrases(raised: list) -> list:
             ("after the selection kept nothing (resolution last)", "the baseline's") \
             if after == NOTHING_KEPT else (f"after {after} was kept", "the kept model's")
         out.append(f"N raised from {a['N']} to {b['N_fine']} {when}: {whose} error {a['error'] * 1e6:.3g} -> "
-                   f"{b['error_fine'] * 1e6:.3g} um (the model's own resolution, not missing physics)")
+                   f"{b['error_fine'] * 1e6:.3g} um (the model's own resolution, not missing physics)"
+                   + (f"; {b['dropped']} dropped there: its gain did not hold at the finer N (it took up the "
+                      f"model's discretization error)" if b.get("dropped") else ""))
         i = j + 1
     return out
 
