@@ -75,6 +75,7 @@ def to_json(D) -> dict:
         "unexplained": unexplained(D),
         "resolution": D.resolution,
         "resolution_first": D.raised,
+        "cold_refit": getattr(D, "cold", None),
         "drive_timing": drive_timing(D) or None,
         "monitor_gain": monitor_gain(D) or None,
         "zeros_fitted": zeros_fitted(D) or None,
@@ -215,6 +216,11 @@ def conclusion(D) -> str:
                      + f" off its condition's other repetitions (its gain, fitted with the model: monitor_gain; "
                      f"prior SD {GAIN_PRIOR:.1%}): check its calibration, or what else differs between those "
                      f"repetitions (the gains take up any force the model misses in one of them)")
+    c = getattr(D, "cold", None)
+    if c and c["taken"]:
+        parts.append(f"the final model was refitted at N = {c['N']} from neutral per-recording nuisances (the warm "
+                     f"starts across N had carried the coarser fits' values): {c['measure']} RMSE "
+                     f"{c['rmse'] * 1e6:.3g} -> {c['rmse_cold'] * 1e6:.3g} um (cold_refit)")
     r = D.resolution
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "
