@@ -19,7 +19,10 @@ catalog and the nominal values.
    (_resolution_check; the kept fit's values evaluated there first, refitted where a
    check needs it), physics keeps its gain over the baseline; an entry whose gain falls
    away only absorbed resolution error: it is dropped and the finer baseline is the final
-   model.
+   model. A kept set (or last entry) whose cut of the squared error shrinks with the
+   elements (RES_CUT) is checked a doubling deeper; an entry whose gain does not survive a
+   raise of N is dropped there; a kept model left at UNEXPLAINED noises is refitted from
+   neutral per-recording nuisances before the verdict (_cold_refit).
 5. Nothing held out (a single condition, or a holdout of none): the rounds still run, on
    the training data alone (BIC), but what they keep is never applied - no nominal value
    is corrected and no physics named without held-out evidence. The entries are the
