@@ -816,8 +816,9 @@ def _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say) -> tupl
     more, held out or in training) it is refitted once at its N from neutral nuisances:
     its values as they are, each recording's resistivity factor, zero, timing and gain
     started afresh (CANDIDATE_NFEV evaluations); the refit is the final model when its cost
-    is lower. The warm starts that carry a fit across the doublings of N also carry the
-    coarse model's per-recording compensation: a strong polarization branch under
+    is lower and its error (held out, else training) below RES_BETTER of the model's. The
+    warm starts that carry a fit across the doublings of N also carry the coarse model's
+    per-recording compensation: a strong polarization branch under
     unipolar pulses (lab_fine, chi_p 0.075, tau_p 1.15 s), kept at N = 21 and refitted
     warm at 41, 81 and 161, stayed at chi_p 0.063, tau_p 0.88 s with 10.4 um held out
     against 2.9 um noise (its gains 2-4 prior SDs off); from the same values with
@@ -835,7 +836,8 @@ def _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say) -> tupl
                 max_nfev=CANDIDATE_NFEV)
     except Exception:              # cannot run: the final model stands
         return current, None
-    taken = g.cost < current.cost
+    # lower cost, and an error RES_BETTER below: a hair's gain is no reason to change the model
+    taken = g.cost < current.cost and _error(g) < RES_BETTER * _error(current)
     rec = {"N": current.params.N, "rmse": _error(current), "rmse_cold": _error(g), "taken": bool(taken),
            "measure": "held-out" if g.heldout_rmse is not None else "training"}
     if taken:

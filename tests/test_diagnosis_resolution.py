@@ -573,6 +573,11 @@ def test_a_model_left_unexplained_is_refitted_from_neutral_nuisances(monkeypatch
     monkeypatch.setattr(dg, "fit", lambda *a, **k: res(11e-6, 12e-6, 3e5))
     final, rec = dg._cold_refit(None, None, [entry], warm, f0, None, None, lambda s: None)
     assert final is warm and not rec["taken"] and rec["rmse_cold"] == 11e-6
+    # nor one whose cost is lower by a hair and whose error is within RES_BETTER (a spline law: 6.9472 ->
+    # 6.9471 um held out, taken, made the final model another fit than the tried entry's)
+    monkeypatch.setattr(dg, "fit", lambda *a, **k: res(10.39e-6, 12.1e-6, 2.46e5))
+    final, rec = dg._cold_refit(None, None, [entry], warm, f0, None, None, lambda s: None)
+    assert final is warm and not rec["taken"]
     # not tried: within UNEXPLAINED noises both held out and in training, nothing kept, or the baseline
     monkeypatch.setattr(dg, "fit", lambda *a, **k: pytest.fail("no refit expected"))
     near = res(5.7e-6, 5.5e-6, 1e4)
