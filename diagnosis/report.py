@@ -719,5 +719,8 @@ def _first_check(r: dict) -> str:
     fc = r.get("first_check")
     if not fc:
         return ""
+    if fc.get("deeper", {}).get("inconclusive"):
+        return (f"; at N = {fc['N']} the squared error it removed was {fc['cut_ratio']:.0%} of that at N = {r['N']}, "
+                f"but at N = {fc['deeper']['N']} the models fit no better: the check at N = {fc['N']} stands")
     return (f"; at N = {fc['N']} the squared error it removed was {fc['cut_ratio']:.0%} of that at N = {r['N']}, "
             f"so it was checked again at N = {r['N_fine']}")

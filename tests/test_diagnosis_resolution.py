@@ -477,6 +477,11 @@ def test_a_cut_that_shrinks_with_the_elements_is_checked_at_twice_those(monkeypa
         "null, no doubling left": ((2.07e-6, 1.55e-6), [(1.80e-6, 1.50e-6, 1.47e-6)], 0),
         "law": ((3.37e-6, 2.24e-6), [(2.83e-6, 2.05e-6, 1.98e-6), (2.56e-6, 1.70e-6, 1.64e-6)], 2),
         "cut holds": ((3.37e-6, 2.24e-6), [(2.83e-6, 1.40e-6, 1.38e-6)], 2),
+        # a linear law under inversion (fresh lab_fine draw): its cut at 41 was 76 % of that at 21, but at
+        # N = 81 the baseline fitted no better (5.86 against 5.82 um) and the kept refit worse (5.26 against
+        # 4.39): the premise fails, the check at 41 stands (it had dropped the real law)
+        "deeper fits no better": ((6.20e-6, 4.39e-6), [(5.82e-6, 4.40e-6, 4.39e-6), (5.86e-6, 5.30e-6, 5.26e-6)],
+                                  2),
     }
     for name, ((e0, ek), levels, budget) in cases.items():
         f0, current = res(e0, 0.0, 21), res(ek, -900.0, 21)
@@ -500,6 +505,11 @@ def test_a_cut_that_shrinks_with_the_elements_is_checked_at_twice_those(monkeypa
         elif name == "law":
             assert kept == [entry] and rec["refined"] and final.params.N == 81 and final.heldout_rmse == 1.64e-6
             assert rec["N_fine"] == 81 and rec["first_check"]["cut_ratio"] == pytest.approx(0.644, abs=0.01)
+        elif name == "deeper fits no better":
+            assert kept == [entry] and rec["N_fine"] == 41 and not rec["resolution_only"], rec
+            assert rec["first_check"]["deeper"]["inconclusive"] and rec["first_check"]["deeper"]["N"] == 81
+            assert next(fits).heldout_rmse == 5.26e-6     # the kept model at 81 was not refitted
+            assert any("the check at N = 41 stands" in s for s in said)
         else:   # the check at 41 stands: kept, the final model refitted there
             assert kept == [entry] and rec["N_fine"] == 41 and "first_check" not in rec, (name, rec)
             assert final.params.N == 41
