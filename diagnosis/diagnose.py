@@ -71,7 +71,7 @@ RES_SHRINK = 0.5     # kept physics whose relative gain falls below this share w
 #                      the model's discretization error (_resolution_check)
 RES_PREMISE = 1.0    # ... a check that holds only if the finer baseline fits better (ratio of errors below this)
 RES_CUT = 0.8        # ... and checked once more at twice the finer N (while RAISE_MAX allows) when the squared
-#                      error it removes there is below this share of what it removed at N (_cut_shrinks)
+#                      error it removes there is below this share of what it removed at N (_shrinks)
 RES_BETTER = 0.99    # ... and the kept model's refit there is the final model when its error is below this share
 #                      of the coarser one's (a Peano stiffness at N = 81 and 161: 1.91 um both; the finer costs 2x)
 RES_NFEV = 12        # evaluations each warm-started refit of that check may take
@@ -160,10 +160,7 @@ class Diagnosis:
         noise while the model misses the trained ones: a stiffness of 44 N/m under loads
         of 2, 6 and 7 N, the 6 N held out, left the baseline at 1.16 noises held out and
         10 in training ("no missing physics found" before)."""
-        for rmse, kind in (self.residual, (self.final.train_rmse, "training")):
-            if rmse is not None and rmse >= UNEXPLAINED * self.final.sigma:
-                return rmse, kind
-        return None
+        return _unexplained(self.final)
 
     @property
     def unexplained(self) -> bool:
@@ -174,6 +171,16 @@ class Diagnosis:
     def remaining_windows(self) -> list:
         """The systematic windows the final model leaves."""
         return [w for w in (self.final_windows if self.final_windows is not None else self.windows) if w.systematic]
+
+
+def _unexplained(f) -> tuple | None:
+    """(stroke RMSE (m), 'held-out' or 'training') of fit f at UNEXPLAINED sensor noises or
+    more - its held-out error (else training), then its training error - or None."""
+    first = (f.heldout_rmse, "held-out") if f.heldout_rmse is not None else (f.train_rmse, "training")
+    for rmse, kind in (first, (f.train_rmse, "training")):
+        if rmse is not None and rmse >= UNEXPLAINED * f.sigma:
+            return rmse, kind
+    return None
 
 
 def _evidence(f, ref) -> dict:
@@ -657,10 +664,9 @@ def _raise_kept(dataset, base, ctx, kept, current, f0, before, holdout, executor
 
 def _raise_holds(fk, bn, current, before) -> bool:
     """Whether the last kept entry holds at the finer N a raise took (_raise_kept): the kept
-    model there (fk) passes acceptance against the model without it there (bn) and keeps
-    RES_SHRINK of its relative gain over `before` at the coarser N (as _holds)."""
-    gain = 1.0 - _error(current) / _error(before)
-    return _accept(fk, bn) and 1.0 - _error(fk) / _error(bn) >= RES_SHRINK * gain
+    model there (fk) against the model without it there (bn), its relative gain over
+    `before` at the coarser N the reference (_keeps, as _holds)."""
+    return _keeps(fk, bn, 1.0 - _error(current) / _error(before))
 
 
 def _leap(dataset, ctx, kept, current, fk, holdout, executor, left):
@@ -756,18 +762,20 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
     first = None
     try:
         holds, fk = _holds(kf, ff, gain)
-        if holds and budget > 0 and _cut_shrinks(f0, current, ff, kf):
+        if holds and budget > 0 and _shrinks(_cut(f0, current), ff, kf):
             # its cut shrank with the elements: checked once more, at twice those
-            first, fk = {"N": Nf, "baseline_rmse": _error(ff), "kept_rmse": _error(kf.best()),
-                         "cut_ratio": _cut(ff, kf.best()) / _cut(f0, current)}, kf.best()
+            fk = kf.best()
+            first = {"N": Nf, "baseline_rmse": _error(ff), "kept_rmse": _error(fk),
+                     "cut_ratio": _cut(ff, fk) / _cut(f0, current)}
             Nd = fine_N(Nf)
             say(f"resolution check: {' + '.join(e.key for e in kept)} removed at N = {first['N']} "
                 f"{first['cut_ratio']:.0%} of the squared error it removed at N = {N}: again at N = {Nd}")
             fbd = base.replace(N=Nd)
             ffd = _fine_baseline(dataset, fbd, ctx, ff, holdout, executor)
             kfd = _KeptFine(dataset, fk.params.replace(N=Nd), ctx, kept, fk, holdout, executor, refits)
-            holds_d, fkd = _holds(kfd, ffd, gain) if _error(ffd) < RES_PREMISE * _error(ff) else (True, None)
-            if fkd is None or (not holds_d and _error(fkd) > _error(fk)):
+            premise = _error(ffd) < RES_PREMISE * _error(ff)
+            holds_d, fkd = _holds(kfd, ffd, gain) if premise else (None, None)
+            if not premise or (not holds_d and _error(fkd) > _error(fk)):
                 # the deeper baseline fitting no better, or the kept model there worse than at
                 # the first finer N (a refit that did not get there: a law under inversion, 4.39
                 # um at N = 41, 5.26 um at 81, the baseline 5.82 and 5.86): the premise fails,
@@ -837,8 +845,7 @@ def _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say) -> tupl
     tried)."""
     if current is f0 or not kept:
         return current, None
-    errs = [e for e in (current.heldout_rmse, current.train_rmse) if e is not None]
-    if not any(e >= UNEXPLAINED * current.sigma for e in errs):
+    if _unexplained(current) is None:
         return current, None
     say(f"the final model leaves {_um(_error(current))}: refitted at N = {current.params.N} from neutral nuisances")
     try:
@@ -863,26 +870,20 @@ def _cut(fb, fk) -> float:
 
 
 def _shrinks(c, ref, kf) -> bool:
-    """Whether an entry's cut at the finer N - the kept model there (kf, a _KeptFine)
-    against `ref`, the model without it there - is below RES_CUT of its cut `c` at N:
-    decided on the evaluated point when that already reaches RES_CUT of c, else on the
-    refit (the point's cut bounds the refit's from below)."""
+    """Whether the cut (_cut) of the kept entries at the finer N - the kept model there (kf,
+    a _KeptFine) against `ref`, the model without them there - is below RES_CUT of their
+    cut `c` at N: decided on the evaluated point when that already reaches RES_CUT of c,
+    else on the refit (the point's error bounds the refit's from above, so its cut from
+    below). Physics removes the same misfit at any N (a law of a lab_fine inversion
+    dataset that cut less at N = 41 also took up some of the coarse model's resolution
+    error); an entry that only absorbs the model's discretization error loses its cut as
+    the elements double. On a null dataset under polarity inversion (lab_fine, truth at
+    651 points) a branch cut 1.88, 1.06, 0.49 and 0.06 um^2 at N = 21, 41, 81 and 161
+    while the baseline left 2.07, 1.80, 1.57 and 1.36 um against 1.30 um noise: its
+    relative gain shrank to 0.73 of itself at N = 41, which RES_SHRINK passes."""
     if c <= 0 or _cut(ref, kf.best()) >= RES_CUT * c:
         return False
     return _cut(ref, kf.fit()) < RES_CUT * c
-
-
-def _cut_shrinks(f0, current, ff, kf) -> bool:
-    """Whether the kept entries' cut (_cut) at the finer N is below RES_CUT of their cut at
-    N: on the refit when the evaluated point falls short (the point's error bounds the
-    refit's from above, so its cut from below). Physics removes the same misfit at any N
-    (a law of a lab_fine inversion dataset that cut less at N = 41 also took up some of the
-    coarse model's resolution error); an entry that only absorbs the model's discretization
-    error loses its cut as the elements double. On a null dataset under polarity inversion
-    (lab_fine, truth at 651 points) a branch cut 1.88, 1.06, 0.49 and 0.06 um^2 at N = 21,
-    41, 81 and 161 while the baseline left 2.07, 1.80, 1.57 and 1.36 um against 1.30 um
-    noise: its relative gain shrank to 0.73 of itself at N = 41, which RES_SHRINK passes."""
-    return _shrinks(_cut(f0, current), ff, kf)
 
 
 def _cannot_run(N, Nf, exc) -> dict:
@@ -1005,13 +1006,17 @@ def _holds(kf, ref, gain=None) -> tuple:
     `ref` (_accept) and, given `gain`, keeps RES_SHRINK of it (1 - its error / ref's):
     decided on the evaluated point when it passes there, else on the refit. Returns
     (holds, the fit or point it was decided on)."""
-    def ok(f):
-        return _accept(f, ref) and (gain is None or 1.0 - _error(f) / _error(ref) >= RES_SHRINK * gain)
     f = kf.point
-    if ok(f) or kf.fitted:
-        return ok(f), f
+    if _keeps(f, ref, gain) or kf.fitted:
+        return _keeps(f, ref, gain), f
     f = kf.fit()
-    return ok(f), f
+    return _keeps(f, ref, gain), f
+
+
+def _keeps(f, ref, gain=None) -> bool:
+    """Whether model f passes acceptance against `ref` (_accept) and, given `gain`, keeps
+    RES_SHRINK of it (1 - its error / ref's)."""
+    return _accept(f, ref) and (gain is None or 1.0 - _error(f) / _error(ref) >= RES_SHRINK * gain)
 
 
 def _fine_baseline(dataset, fb, ctx, f0, holdout, executor, fine=None):

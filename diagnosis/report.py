@@ -715,7 +715,7 @@ def write(D, out) -> dict:
 
 def _first_check(r: dict) -> str:
     """The resolution check's first finer N, when the kept entries' cut shrank there and it
-    was made again at twice those elements (diagnose._cut_shrinks), as a phrase."""
+    was made again at twice those elements (diagnose._shrinks), as a phrase."""
     fc = r.get("first_check")
     if not fc:
         return ""

@@ -424,7 +424,7 @@ def test_an_entry_is_checked_deeper_when_the_rest_is_not_resolved(monkeypatch):
     is resolved (its values at N = 21 within 1/RAISE_GAIN of its error) the check at 41
     stands, and with no doublings left (budget 0) it stands too. Fits stubbed."""
     dg = _stubbed_diagnose(monkeypatch, _same_base)
-    # the set's own cut (_cut_shrinks: 73.9 um^2 at N = 21, 49.6 at 41) would take the whole
+    # the set's own cut (_shrinks: 73.9 um^2 at N = 21, 49.6 at 41) would take the whole
     # check to N = 81 first: this test is of the last entry's check alone
     monkeypatch.setattr(dg, "RES_CUT", 0.0)
     law, inertia = _entry("field_dependent_resistivity (Eq. 21)"), _entry("inertia")
@@ -459,7 +459,7 @@ def test_an_entry_is_checked_deeper_when_the_rest_is_not_resolved(monkeypatch):
 
 
 def test_a_cut_that_shrinks_with_the_elements_is_checked_at_twice_those(monkeypatch):
-    """_cut_shrinks: on a null dataset under polarity inversion with a converged truth
+    """_shrinks on the kept set: on a null dataset under polarity inversion with a converged truth
     (lab_fine, 651 points) a polarization branch kept at N = 21 cut the held-out error 2.07
     -> 1.55 um (1.30 um noise); at N = 41 1.80 -> 1.47 um, a relative gain of 0.73 of
     itself, which RES_SHRINK passes, but only 57 % of the squared error it had removed; at
