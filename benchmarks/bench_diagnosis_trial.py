@@ -49,13 +49,61 @@ REVEALED_LAB = {
 }
 
 
+# the converged truth's rig (lab_fine: the lab's channels, the truth at 31x N) measured the
+# same way (bench_revealed_sizes.py --rig lab_fine, 2026-11-29, 3 draws a size; docs/guide/
+# diagnosis.md "What the converged truth's recordings reveal"). The branch's at tau_p = 1 s
+# here; BRANCH_TAU_FINE has it at each time constant measured: a fast branch relaxes within
+# the drive's switching and shows far less (under reset + hold 0.01 at 3 s, not at 0.04 at
+# 0.1 s), and the trial drew chi_p 1-4x one size for tau_p 0.1-3 s: fresh lab_fine draws
+# missed two branches at tau_p 0.11 and 0.16 s whose baselines were within 1.5 noises
+REVEALED_FINE = {
+    "reset_hold": {"stiffness": None, "inertia": 0.02, "polarization_branch": 0.02, "series_resistance": 1.25e5,
+                   "field_dependent_resistivity": 8e4},
+    "inversion": {"stiffness": None, "inertia": None, "polarization_branch": None, "series_resistance": None,
+                  "field_dependent_resistivity": None},
+    "unipolar": {"stiffness": None, "inertia": None, "polarization_branch": None, "series_resistance": None,
+                 "field_dependent_resistivity": None},
+}
+BRANCH_TAU_FINE = {   # drive: ((tau_p, revealed chi_p or None), ...) by rising tau_p
+    "reset_hold": ((0.1, 0.16), (0.3, 0.04), (1.0, 0.02), (3.0, 0.01)),
+    "inversion": ((0.1, None), (0.3, None), (1.0, None), (3.0, None)),
+    "unipolar": ((0.1, None), (0.3, None), (1.0, None), (3.0, None)),
+}
+REVEALED = {"lab": REVEALED_LAB, "lab_fine": REVEALED_FINE}
+BRANCH_TAU = {"lab_fine": BRANCH_TAU_FINE}
+TAU_P_RANGE = (0.1, 3.0)   # the branch's time constants drawn (log-uniform), s
+
+
+def branch_sizes(rig: str, drive: str):
+    """((tau_p, revealed chi_p), ...) of the rig and drive where measured at several time
+    constants, the taus where the branch is not revealed left out; None: not measured so."""
+    table = BRANCH_TAU.get(rig, {}).get(drive)
+    return None if table is None else tuple((t, v) for t, v in table if v is not None)
+
+
+def branch_size_at(taus, tau_p: float) -> float:
+    """The revealed chi_p at tau_p: log-log between the measured time constants, the
+    nearest one's beyond them."""
+    t, v = np.log([x for x, _ in taus]), np.log([y for _, y in taus])
+    return float(np.exp(np.interp(math.log(tau_p), t, v)))
+
+
 def ranges(rig: str = "ideal", drive: str = "reset_hold", sizes: str = "ideal") -> dict:
     """entry -> (key, low, high) drawn log-uniformly on this rig and drive. sizes 'ideal':
     RANGES everywhere (1-4x what the ideal rig's reset + hold conceals); 'revealed': on the
-    lab rig 1-4x REVEALED_LAB[drive], the entries it does not reveal left out."""
+    lab rigs 1-4x REVEALED[rig][drive], the entries it does not reveal left out. Where the
+    branch was measured at several time constants (BRANCH_TAU) its entry is (key, low, high,
+    taus): tau_p is drawn where it is revealed, and chi_p at 1-4x its size there (draw)."""
     if sizes == "ideal" or rig == "ideal":
         return dict(RANGES)
-    return {e: (RANGES[e][0], v, 4.0 * v) for e, v in REVEALED_LAB[drive].items() if v is not None}
+    out = {e: (RANGES[e][0], v, 4.0 * v) for e, v in REVEALED[rig][drive].items() if v is not None}
+    taus = branch_sizes(rig, drive)
+    if taus is not None:
+        out.pop("polarization_branch", None)
+        if taus:
+            v = branch_size_at(taus, 1.0)
+            out["polarization_branch"] = (RANGES["polarization_branch"][0], v, 4.0 * v, taus)
+    return {e: out[e] for e in RANGES if e in out}
 
 
 def truth_at(effect: str, value: float, tau_p: float | None = None) -> dict:
@@ -89,10 +137,16 @@ def draw(i: int, seed: int, laws_outside: bool = False, rng_of: dict | None = No
     reset, hold = (3.0, 20.0) if rng.integers(2) else (1.0, 10.0)
     truth = {}
     if effect != "null":
-        _, lo, hi = rng_of[effect]
+        lo, hi = rng_of[effect][1:3]
         value = float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
-        tau_p = float(math.exp(rng.uniform(math.log(0.1), math.log(3.0)))) \
-            if effect == "polarization_branch" else None
+        tau_p, taus = None, (rng_of[effect][3] if len(rng_of[effect]) > 3 else None)
+        if effect == "polarization_branch":
+            # where the branch's size depends on tau_p: tau_p drawn where it is revealed, chi_p
+            # the same 1-4x of its size there (one draw each, as before)
+            t_lo = max(TAU_P_RANGE[0], taus[0][0]) if taus else TAU_P_RANGE[0]
+            tau_p = float(math.exp(rng.uniform(math.log(t_lo), math.log(TAU_P_RANGE[1]))))
+            if taus:
+                value *= branch_size_at(taus, tau_p) / lo
         truth = truth_at(effect, value, tau_p)
         if effect == "field_dependent_resistivity":
             form = ("eq21", "exp", "power")[int(rng.integers(3))] if laws_outside else "eq21"
@@ -202,7 +256,7 @@ def main(argv=None):
     ap.add_argument("--drive", choices=["reset_hold", "inversion", "unipolar"], default="reset_hold")
     ap.add_argument("--sizes", choices=["ideal", "revealed"], default="ideal",
                     help="ideal: every entry at 1-4x what the ideal rig's reset + hold conceals (RANGES); revealed: "
-                         "on the lab rig at 1-4x what its recordings under the drive reveal (REVEALED_LAB), the "
+                         "on the lab rigs at 1-4x what their recordings under the drive reveal (REVEALED), the "
                          "entries they do not reveal left out")
     ap.add_argument("--laws-outside", action="store_true",
                     help="draw field laws among Eq. (21), an exponential and a power law (the last two outside the "
@@ -218,7 +272,7 @@ def main(argv=None):
     left_out = [e for e in EFFECTS if e != "null" and e not in rng_of]
     if left_out:
         print(f"not drawn: {', '.join(left_out)} (not revealed by the {a.rig} rig's recordings under {a.drive}; "
-              "REVEALED_LAB)", file=sys.stderr)
+              "REVEALED)", file=sys.stderr)
     cases = [{**draw(i, a.seed, a.laws_outside, rng_of), "N": a.N, "rig": a.rig, "drive": a.drive, "sizes": a.sizes}
              for i in range(a.n) if i not in done]
     t0 = time.perf_counter()
@@ -237,7 +291,8 @@ def main(argv=None):
                   file=sys.stderr, flush=True)
     print(summarize([done[i] for i in sorted(done) if i < a.n]))
     print(f"sizes ({a.sizes}, {a.rig} rig, {a.drive}): "
-          + "; ".join(f"{e} {k} {lo:.3g}-{hi:.3g}" for e, (k, lo, hi) in rng_of.items())
+          + "; ".join(f"{e} {r[0]} {r[1]:.3g}-{r[2]:.3g}" + (" at tau_p 1 s, scaled by tau_p" if len(r) > 3 else "")
+                      for e, r in rng_of.items())
           + (f"; not drawn: {', '.join(left_out)}" if left_out else ""))
 
 

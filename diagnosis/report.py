@@ -216,11 +216,6 @@ def conclusion(D) -> str:
                      + f" off its condition's other repetitions (its gain, fitted with the model: monitor_gain; "
                      f"prior SD {GAIN_PRIOR:.1%}): check its calibration, or what else differs between those "
                      f"repetitions (the gains take up any force the model misses in one of them)")
-    c = getattr(D, "cold", None)
-    if c and c["taken"]:
-        parts.append(f"the final model was refitted at N = {c['N']} from neutral per-recording nuisances (the warm "
-                     f"starts across N had carried the coarser fits' values): {c['measure']} RMSE "
-                     f"{c['rmse'] * 1e6:.3g} -> {c['rmse_cold'] * 1e6:.3g} um (cold_refit)")
     r = D.resolution
     if r and r.get("resolution_only"):
         parts.append(f"{', '.join(r['dropped'])} only took up the model's discretization error (it cut the "
@@ -245,6 +240,12 @@ def conclusion(D) -> str:
             parts.append(f"the final model is at N = {r['N_fine']} (N = {r['N']} left its own discretization error: "
                          f"{r['kept_rmse'] * 1e6:.3g} um {r['measure']} RMSE against "
                          f"{r['kept_fine_rmse'] * 1e6:.3g} um{_first_check(r)})")
+    # after the resolution's phrases: their errors are the warm refits' the cold one started from
+    c = getattr(D, "cold", None)
+    if c and c["taken"]:
+        parts.append(f"the final model was refitted at N = {c['N']} from neutral per-recording nuisances (the warm "
+                     f"starts across N had carried the coarser fits' values): {c['measure']} RMSE "
+                     f"{c['rmse'] * 1e6:.3g} -> {c['rmse_cold'] * 1e6:.3g} um (cold_refit)")
     blind = zeros_fitted(D)
     if blind and len(blind) == len(D.dataset.recordings) and "stiffness" not in phys:
         parts.append(f"the sensor zeros were fitted in all {len(blind)} recordings (the model never rests on its "

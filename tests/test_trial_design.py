@@ -44,6 +44,54 @@ def test_the_revealed_sizes_leave_out_what_the_lab_rig_does_not_reveal(drive):
             assert v * (1 - 1e-9) <= _size(c) <= 4 * v * (1 + 1e-9)
 
 
+@pytest.mark.parametrize("drive", sorted(trial.REVEALED_FINE))
+def test_the_converged_truths_sizes_leave_out_what_it_does_not_reveal(drive):
+    """lab_fine's sizes (REVEALED_FINE): every entry it does not reveal is left out, and the
+    branch is drawn where BRANCH_TAU_FINE reveals it, at 1-4x its size at the drawn tau_p."""
+    rng_of = trial.ranges("lab_fine", drive, "revealed")
+    hidden = {e for e, v in trial.REVEALED_FINE[drive].items() if v is None and e != "polarization_branch"}
+    assert hidden.isdisjoint(rng_of)
+    taus = trial.branch_sizes("lab_fine", drive)
+    assert ("polarization_branch" in rng_of) == bool(taus)
+    cases = [trial.draw(i, 13, True, rng_of) for i in range(4 * (len(rng_of) + 1))]
+    assert {c["effect"] for c in cases} == {"null", *rng_of}
+    for c in cases:
+        if c["effect"] == "polarization_branch":
+            tau = c["truth"]["tau_p"]
+            v = trial.branch_size_at(taus, tau)
+            assert max(taus[0][0], 0.1) <= tau <= 3.0
+            assert v * (1 - 1e-9) <= _size(c) <= 4 * v * (1 + 1e-9), (tau, v, _size(c))
+        elif c["effect"] != "null":
+            v = trial.REVEALED_FINE[drive][c["effect"]]
+            assert v * (1 - 1e-9) <= _size(c) <= 4 * v * (1 + 1e-9)
+
+
+def test_a_branch_is_drawn_at_its_own_time_constants_revealed_size(monkeypatch):
+    """A branch revealed at 0.04 (tau_p 0.3 s), 0.02 (1 s) and 0.01 (3 s), not at 0.1 s:
+    tau_p drawn within 0.3-3 s, chi_p at 1-4x the log-log line through those at tau_p."""
+    table = ((0.1, None), (0.3, 0.04), (1.0, 0.02), (3.0, 0.01))
+    monkeypatch.setitem(trial.BRANCH_TAU, "lab_fine", {"reset_hold": table})
+    taus = trial.branch_sizes("lab_fine", "reset_hold")
+    assert taus == ((0.3, 0.04), (1.0, 0.02), (3.0, 0.01))
+    assert math.isclose(trial.branch_size_at(taus, 1.0), 0.02)
+    assert math.isclose(trial.branch_size_at(taus, math.sqrt(3.0)), 0.02 / math.sqrt(2.0))
+    assert math.isclose(trial.branch_size_at(taus, 10.0), 0.01)
+    rng_of = trial.ranges("lab_fine", "reset_hold", "revealed")
+    assert rng_of["polarization_branch"][1:3] == (0.02, 0.08)
+    effects = [e for e in trial.EFFECTS if e == "null" or e in rng_of]     # draw's turns
+    i0 = effects.index("polarization_branch")
+    cases = [trial.draw(i0 + len(effects) * k, 5, False, rng_of) for k in range(30)]
+    assert {c["effect"] for c in cases} == {"polarization_branch"}
+    taus_drawn = [c["truth"]["tau_p"] for c in cases]
+    assert min(taus_drawn) >= 0.3 and max(taus_drawn) <= 3.0 and min(taus_drawn) < 0.5 and max(taus_drawn) > 2.0
+    for c in cases:
+        v = trial.branch_size_at(taus, c["truth"]["tau_p"])
+        assert v * (1 - 1e-9) <= c["truth"]["chi_p"] <= 4 * v * (1 + 1e-9)
+    # not revealed at any tau_p: not drawn
+    monkeypatch.setitem(trial.BRANCH_TAU, "lab_fine", {"reset_hold": ((1.0, None),)})
+    assert "polarization_branch" not in trial.ranges("lab_fine", "reset_hold", "revealed")
+
+
 def test_a_spring_is_not_drawn_under_reset_and_hold_on_the_lab_rig_but_is_on_the_ideal_one():
     assert "stiffness" not in trial.ranges("lab", "reset_hold", "revealed")
     assert "stiffness" in trial.ranges("ideal", "reset_hold", "revealed")
