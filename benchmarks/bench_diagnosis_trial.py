@@ -59,14 +59,14 @@ REVEALED_LAB = {
 REVEALED_FINE = {
     "reset_hold": {"stiffness": None, "inertia": 0.02, "polarization_branch": 0.02, "series_resistance": 1.25e5,
                    "field_dependent_resistivity": 8e4},
-    "inversion": {"stiffness": None, "inertia": None, "polarization_branch": None, "series_resistance": None,
-                  "field_dependent_resistivity": None},
+    "inversion": {"stiffness": None, "inertia": 0.02, "polarization_branch": 0.16, "series_resistance": 2.5e5,
+                  "field_dependent_resistivity": 1.6e5},
     "unipolar": {"stiffness": None, "inertia": None, "polarization_branch": None, "series_resistance": None,
                  "field_dependent_resistivity": None},
 }
 BRANCH_TAU_FINE = {   # drive: ((tau_p, revealed chi_p or None), ...) by rising tau_p
     "reset_hold": ((0.1, 0.16), (0.3, 0.04), (1.0, 0.02), (3.0, 0.01)),
-    "inversion": ((0.1, None), (0.3, None), (1.0, None), (3.0, None)),
+    "inversion": ((0.1, 0.04), (0.3, 0.04), (1.0, 0.16), (3.0, None)),
     "unipolar": ((0.1, None), (0.3, None), (1.0, None), (3.0, None)),
 }
 REVEALED = {"lab": REVEALED_LAB, "lab_fine": REVEALED_FINE}
@@ -141,10 +141,10 @@ def draw(i: int, seed: int, laws_outside: bool = False, rng_of: dict | None = No
         value = float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
         tau_p, taus = None, (rng_of[effect][3] if len(rng_of[effect]) > 3 else None)
         if effect == "polarization_branch":
-            # where the branch's size depends on tau_p: tau_p drawn where it is revealed, chi_p
-            # the same 1-4x of its size there (one draw each, as before)
-            t_lo = max(TAU_P_RANGE[0], taus[0][0]) if taus else TAU_P_RANGE[0]
-            tau_p = float(math.exp(rng.uniform(math.log(t_lo), math.log(TAU_P_RANGE[1]))))
+            # where the branch's size depends on tau_p: tau_p drawn between the time constants
+            # where it is revealed, chi_p the same 1-4x of its size there (one draw each, as before)
+            t_lo, t_hi = (max(TAU_P_RANGE[0], taus[0][0]), min(TAU_P_RANGE[1], taus[-1][0])) if taus else TAU_P_RANGE
+            tau_p = float(math.exp(rng.uniform(math.log(t_lo), math.log(t_hi))))
             if taus:
                 value *= branch_size_at(taus, tau_p) / lo
         truth = truth_at(effect, value, tau_p)

@@ -59,7 +59,7 @@ def test_the_converged_truths_sizes_leave_out_what_it_does_not_reveal(drive):
         if c["effect"] == "polarization_branch":
             tau = c["truth"]["tau_p"]
             v = trial.branch_size_at(taus, tau)
-            assert max(taus[0][0], 0.1) <= tau <= 3.0
+            assert max(taus[0][0], 0.1) <= tau <= min(taus[-1][0], 3.0)
             assert v * (1 - 1e-9) <= _size(c) <= 4 * v * (1 + 1e-9), (tau, v, _size(c))
         elif c["effect"] != "null":
             v = trial.REVEALED_FINE[drive][c["effect"]]
@@ -87,6 +87,13 @@ def test_a_branch_is_drawn_at_its_own_time_constants_revealed_size(monkeypatch):
     for c in cases:
         v = trial.branch_size_at(taus, c["truth"]["tau_p"])
         assert v * (1 - 1e-9) <= c["truth"]["chi_p"] <= 4 * v * (1 + 1e-9)
+    # revealed at the fast time constants only (under inversion): tau_p drawn among those
+    monkeypatch.setitem(trial.BRANCH_TAU, "lab_fine", {"reset_hold": ((0.1, 0.04), (1.0, 0.16), (3.0, None))})
+    rng_of = trial.ranges("lab_fine", "reset_hold", "revealed")
+    effects = [e for e in trial.EFFECTS if e == "null" or e in rng_of]
+    i0 = effects.index("polarization_branch")
+    drawn = [trial.draw(i0 + len(effects) * k, 5, False, rng_of)["truth"]["tau_p"] for k in range(30)]
+    assert 0.1 <= min(drawn) and max(drawn) <= 1.0 and max(drawn) > 0.6
     # not revealed at any tau_p: not drawn
     monkeypatch.setitem(trial.BRANCH_TAU, "lab_fine", {"reset_hold": ((1.0, None),)})
     assert "polarization_branch" not in trial.ranges("lab_fine", "reset_hold", "revealed")
