@@ -61,13 +61,13 @@ REVEALED_FINE = {
                    "field_dependent_resistivity": 8e4},
     "inversion": {"stiffness": None, "inertia": 0.02, "polarization_branch": 0.16, "series_resistance": 2.5e5,
                   "field_dependent_resistivity": 1.6e5},
-    "unipolar": {"stiffness": None, "inertia": None, "polarization_branch": None, "series_resistance": None,
-                 "field_dependent_resistivity": None},
+    "unipolar": {"stiffness": 30.0, "inertia": 0.01, "polarization_branch": 0.01, "series_resistance": 1e6,
+                 "field_dependent_resistivity": 8e4},
 }
 BRANCH_TAU_FINE = {   # drive: ((tau_p, revealed chi_p or None), ...) by rising tau_p
     "reset_hold": ((0.1, 0.16), (0.3, 0.04), (1.0, 0.02), (3.0, 0.01)),
     "inversion": ((0.1, 0.04), (0.3, 0.04), (1.0, 0.16), (3.0, None)),
-    "unipolar": ((0.1, None), (0.3, None), (1.0, None), (3.0, None)),
+    "unipolar": ((0.1, 0.01), (0.3, 0.02), (1.0, 0.01), (3.0, 0.01)),
 }
 REVEALED = {"lab": REVEALED_LAB, "lab_fine": REVEALED_FINE}
 BRANCH_TAU = {"lab_fine": BRANCH_TAU_FINE}
