@@ -51,11 +51,11 @@ REVEALED_LAB = {
 
 # the converged truth's rig (lab_fine: the lab's channels, the truth at 31x N) measured the
 # same way (bench_revealed_sizes.py --rig lab_fine, 2026-11-29, 3 draws a size; docs/guide/
-# diagnosis.md "What the converged truth's recordings reveal"). The branch's at tau_p = 1 s
-# here; BRANCH_TAU_FINE has it at each time constant measured: a fast branch relaxes within
-# the drive's switching and shows far less (under reset + hold 0.01 at 3 s, not at 0.04 at
-# 0.1 s), and the trial drew chi_p 1-4x one size for tau_p 0.1-3 s: fresh lab_fine draws
-# missed two branches at tau_p 0.11 and 0.16 s whose baselines were within 1.5 noises
+# diagnosis.md "... the converged truth's own revealed sizes"). The branch's at tau_p = 1 s
+# here; BRANCH_TAU_FINE has it at each time constant measured, which moves it 16x, in
+# opposite ways under reset + hold (0.16 at 0.1 s, 0.01 at 3 s) and inversion (0.04 at
+# 0.1 s, not revealed at 3 s). The trial drew chi_p 1-4x one size for tau_p 0.1-3 s, and
+# fresh lab_fine draws missed two branches at tau_p 0.11 and 0.16 s below their own size
 REVEALED_FINE = {
     "reset_hold": {"stiffness": None, "inertia": 0.02, "polarization_branch": 0.02, "series_resistance": 1.25e5,
                    "field_dependent_resistivity": 8e4},
