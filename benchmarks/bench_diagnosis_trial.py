@@ -51,17 +51,17 @@ REVEALED_LAB = {
 
 # the converged truth's rig (lab_fine: the lab's channels, the truth at 31x N) measured the
 # same way (bench_revealed_sizes.py --rig lab_fine, 2026-11-29, 3 draws a size; docs/guide/
-# diagnosis.md "... the converged truth's own revealed sizes"). The branch's at tau_p = 1 s
-# here; BRANCH_TAU_FINE has it at each time constant measured, which moves it 16x, in
+# diagnosis.md "... the converged truth's own revealed sizes"). The branch's is in
+# BRANCH_TAU_FINE, at each time constant measured, which moves it 16x, in
 # opposite ways under reset + hold (0.16 at 0.1 s, 0.01 at 3 s) and inversion (0.04 at
 # 0.1 s, not revealed at 3 s). The trial drew chi_p 1-4x one size for tau_p 0.1-3 s, and
 # fresh lab_fine draws missed two branches at tau_p 0.11 and 0.16 s below their own size
 REVEALED_FINE = {
-    "reset_hold": {"stiffness": None, "inertia": 0.02, "polarization_branch": 0.02, "series_resistance": 1.25e5,
+    "reset_hold": {"stiffness": None, "inertia": 0.02, "series_resistance": 1.25e5,
                    "field_dependent_resistivity": 8e4},
-    "inversion": {"stiffness": None, "inertia": 0.02, "polarization_branch": 0.16, "series_resistance": 2.5e5,
+    "inversion": {"stiffness": None, "inertia": 0.02, "series_resistance": 2.5e5,
                   "field_dependent_resistivity": 1.6e5},
-    "unipolar": {"stiffness": 30.0, "inertia": 0.01, "polarization_branch": 0.01, "series_resistance": 1e6,
+    "unipolar": {"stiffness": 30.0, "inertia": 0.01, "series_resistance": 1e6,
                  "field_dependent_resistivity": 8e4},
 }
 BRANCH_TAU_FINE = {   # drive: ((tau_p, revealed chi_p or None), ...) by rising tau_p
@@ -98,11 +98,9 @@ def ranges(rig: str = "ideal", drive: str = "reset_hold", sizes: str = "ideal") 
         return dict(RANGES)
     out = {e: (RANGES[e][0], v, 4.0 * v) for e, v in REVEALED[rig][drive].items() if v is not None}
     taus = branch_sizes(rig, drive)
-    if taus is not None:
-        out.pop("polarization_branch", None)
-        if taus:
-            v = branch_size_at(taus, 1.0)
-            out["polarization_branch"] = (RANGES["polarization_branch"][0], v, 4.0 * v, taus)
+    if taus:          # its range at 1 s, each draw's moved to its own tau_p (draw)
+        v = branch_size_at(taus, 1.0)
+        out["polarization_branch"] = (RANGES["polarization_branch"][0], v, 4.0 * v, taus)
     return {e: out[e] for e in RANGES if e in out}
 
 
@@ -139,8 +137,9 @@ def draw(i: int, seed: int, laws_outside: bool = False, rng_of: dict | None = No
     if effect != "null":
         lo, hi = rng_of[effect][1:3]
         value = float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
-        tau_p, taus = None, (rng_of[effect][3] if len(rng_of[effect]) > 3 else None)
+        tau_p = None
         if effect == "polarization_branch":
+            taus = rng_of[effect][3] if len(rng_of[effect]) > 3 else None
             # where the branch's size depends on tau_p: tau_p drawn between the time constants
             # where it is revealed, chi_p the same 1-4x of its size there (one draw each, as before)
             t_lo, t_hi = (max(TAU_P_RANGE[0], taus[0][0]), min(TAU_P_RANGE[1], taus[-1][0])) if taus else TAU_P_RANGE

@@ -51,6 +51,12 @@ def truth_keys(entry: str, value: float, tau_p: float = TAU_P) -> dict:
     return {} if value == 0.0 else trial.truth_at(entry, value, tau_p)
 
 
+def _taus_of(entry: str, value: float, taus: list) -> list:
+    """The time constants `entry` is run at, at size `value`: the branch at each of `taus`,
+    but its size 0 (the same draw without it, every tau's floor) once, at TAU_P."""
+    return list(taus) if entry == "polarization_branch" and value != 0.0 else [TAU_P]
+
+
 def run_one(job: tuple) -> dict:
     rig_name, drive, entry, value, d, N, tau_p = job
     import warnings
@@ -115,7 +121,8 @@ def main(argv=None):
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default="revealed_sizes.jsonl")
     ap.add_argument("--tau-p", default=str(TAU_P),
-                    help=f"the branch's time constant(s), s, comma-separated (default {TAU_P:g}; the trial draws 0.1-3)")
+                    help=f"the branch's time constant(s), s, comma-separated (default {TAU_P:g}; the trial draws "
+                         "0.1-3)")
     a = ap.parse_args(argv)
     try:
         taus = [float(x) for x in a.tau_p.split(",") if x]
@@ -133,8 +140,8 @@ def main(argv=None):
     for r in rows:                  # rows from before --tau-p: the branch at TAU_P
         r.setdefault("tau_p", TAU_P)
     done = {(r["entry"], r["value"], r["draw"], r["tau_p"]) for r in rows}
-    jobs = [(a.rig, a.drive, e, v, d, a.N, t) for e in entries for t in (taus if e == "polarization_branch" else [TAU_P])
-            for v in LADDERS[e] for d in range(a.draws) if (e, v, d, t) not in done]
+    jobs = [(a.rig, a.drive, e, v, d, a.N, t) for e in entries for v in LADDERS[e] for t in _taus_of(e, v, taus)
+            for d in range(a.draws) if (e, v, d, t) not in done]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(a.workers) as ex, out.open("a") as fh:
         for k, r in enumerate(ex.map(run_one, jobs), 1):
@@ -149,8 +156,8 @@ def main(argv=None):
     if "polarization_branch" in entries:
         for t in taus:
             print(f"polarization_branch at tau_p = {t:g} s")
-            print(summarize([r for r in rows if r["entry"] == "polarization_branch" and r["tau_p"] == t],
-                            ["polarization_branch"]))
+            print(summarize([r for r in rows if r["entry"] == "polarization_branch"
+                             and (r["tau_p"] == t or r["value"] == 0.0)], ["polarization_branch"]))
 
 
 if __name__ == "__main__":

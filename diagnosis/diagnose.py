@@ -1007,8 +1007,9 @@ def _holds(kf, ref, gain=None) -> tuple:
     decided on the evaluated point when it passes there, else on the refit. Returns
     (holds, the fit or point it was decided on)."""
     f = kf.point
-    if _keeps(f, ref, gain) or kf.fitted:
-        return _keeps(f, ref, gain), f
+    ok = _keeps(f, ref, gain)
+    if ok or kf.fitted:
+        return ok, f
     f = kf.fit()
     return _keeps(f, ref, gain), f
 

@@ -720,8 +720,7 @@ def _first_check(r: dict) -> str:
     fc = r.get("first_check")
     if not fc:
         return ""
+    cut = f"; at N = {fc['N']} the squared error it removed was {fc['cut_ratio']:.0%} of that at N = {r['N']}"
     if fc.get("deeper", {}).get("inconclusive"):
-        return (f"; at N = {fc['N']} the squared error it removed was {fc['cut_ratio']:.0%} of that at N = {r['N']}, "
-                f"but at N = {fc['deeper']['N']} the models fit no better: the check at N = {fc['N']} stands")
-    return (f"; at N = {fc['N']} the squared error it removed was {fc['cut_ratio']:.0%} of that at N = {r['N']}, "
-            f"so it was checked again at N = {r['N_fine']}")
+        return f"{cut}, but at N = {fc['deeper']['N']} the models fit no better: the check at N = {fc['N']} stands"
+    return f"{cut}, so it was checked again at N = {r['N_fine']}"
