@@ -26,6 +26,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+import numpy as np
+
 from dfa_model.physics.dielectrics import SPLINE_KNOTS_MAX, from_parameters
 from dfa_model.physics.kinematics import make
 from dfa_model.io.parameters import DROP_KEYS, Parameters
@@ -102,6 +104,10 @@ class Entry:
     # the next, more flexible form to fit from a fitted one (None: no more): its
     # complexity chosen by the data (diagnose._more_shape)
     refine: Callable[[Parameters, Context], Parameters | None] | None = None
+    # the form through a rival form's fitted law (a fit of another form of the entry), or
+    # None when it cannot carry that law's shape: where this form also starts when the
+    # rival fits better yet leaves the mismatch unexplained (diagnose._through_rival)
+    through: Callable[[Parameters, Context], Parameters | None] | None = None
 
     @property
     def key(self) -> str:
@@ -143,6 +149,25 @@ def _more_knots(p: Parameters, ctx: Context) -> Parameters | None:
         return None
     drops = from_parameters(p).resampled(p.n_knots + 1)
     return p.replace(n_knots=p.n_knots + 1, **dict(zip(DROP_KEYS, [*drops, *[0.0] * len(DROP_KEYS)])))
+
+
+THROUGH_KNOTS = 4   # the spline through another law starts with this many knots (its knot search goes on)
+
+
+def _spline_through(p: Parameters, ctx: Context) -> Parameters | None:
+    """The spline law through p's law (Eq. (21)) at THROUGH_KNOTS knots over the spline's
+    fields (spline_knots), its level below E_lo that law's there: None when the law does
+    not fall over them (the spline's drops are >= 0; a rising or flat law has no shape it
+    could carry)."""
+    if p.law == "spline":
+        return None
+    E_lo, E_hi = spline_knots(p, ctx.V_max)
+    r = from_parameters(p).rho(np.geomspace(E_lo, E_hi, THROUGH_KNOTS))
+    drops = np.maximum(-np.diff(np.log(r)), 0.0)
+    if not np.all(np.isfinite(r)) or drops.sum() <= 0.0:
+        return None
+    return p.replace(law="spline", rho_l=float(r[0]), E_lo=E_lo, E_hi=E_hi, n_knots=THROUGH_KNOTS,
+                     **dict(zip(DROP_KEYS, [*drops.tolist(), *[0.0] * len(DROP_KEYS)])))
 
 
 def _spline_spec(p: Parameters, ctx: Context) -> list:
@@ -230,7 +255,8 @@ PHYSICS = [
           # not also from the voltages' own levels as Eq. (21) is (tried: the race chose that
           # start for an exponential law under unipolar pulses, and the knot search from it
           # stopped at 3 knots, 4.98 um held out, against 5 knots and 3.99 um from here)
-          variant="spline", shows=lambda p: ("rho_l", "n_knots", *DROP_KEYS[:p.n_knots - 1]), refine=_more_knots),
+          variant="spline", shows=lambda p: ("rho_l", "n_knots", *DROP_KEYS[:p.n_knots - 1]), refine=_more_knots,
+          through=_spline_through),
     Entry("polarization_branch", _no_change,
           lambda p, ctx: [FreeParameter("chi_p", False, 0.0, 5.0, scale=0.05),
                           FreeParameter("tau_p", True, 1e-3, 1e3)],

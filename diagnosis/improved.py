@@ -167,6 +167,7 @@ def write_protocols(D, out: Path) -> dict:
 
 
 NOTHING_KEPT = "(nothing kept)"   # a Diagnosis.raised step's `after` when the rounds kept nothing (resolution last)
+RESELECTED = "(selection run again)"   # ... when the kept set's cut shrank at the finer N (diagnose._reselect_due)
 
 
 def raised_phrases(raised: list) -> list:
@@ -180,7 +181,11 @@ def raised_phrases(raised: list) -> list:
         a, b, after = raised[i], raised[j], raised[i].get("after")
         when, whose = ("before the selection", "the baseline's") if after is None else \
             ("after the selection kept nothing (resolution last)", "the baseline's") \
-            if after == NOTHING_KEPT else (f"after {after} was kept", "the kept model's")
+            if after == NOTHING_KEPT else \
+            (f"after the selection kept {' + '.join(a['kept_first'])} (its cut of the squared error shrank to "
+             f"{a['cut_ratio']:.0%} at the finer N while the mismatch stayed unexplained: the selection was run "
+             f"again there)", "the first selection's model's") \
+            if after == RESELECTED else (f"after {after} was kept", "the kept model's")
         out.append(f"N raised from {a['N']} to {b['N_fine']} {when}: {whose} error {a['error'] * 1e6:.3g} -> "
                    f"{b['error_fine'] * 1e6:.3g} um (the model's own resolution, not missing physics)"
                    + (f"; {b['dropped']} dropped there: its gain did not hold at the finer N (it took up the "

@@ -44,11 +44,12 @@ def _clean(o):
 def to_json(D) -> dict:
     final = D.final if D.improved else None
     missing = []
+    first = taken_rounds(D)[0]
     for i, e in enumerate(D.chain or D.kept):      # the round that kept it holds its evidence
         if e.kind != "physics" or e not in D.kept:
             continue
         missing.append({"name": e.name, "form": e.variant or None, "description": e.description,
-                        "parameters": entry_parameters(D, e), "evidence": D.rounds[i][e.key]})
+                        "parameters": entry_parameters(D, e), "evidence": D.rounds[first + i][e.key]})
     corrected = {}
     nominal = D.dataset.params
     for k, v in D.final.values.items():
@@ -75,6 +76,7 @@ def to_json(D) -> dict:
         "unexplained": unexplained(D),
         "resolution": D.resolution,
         "resolution_first": D.raised,
+        "reselect": getattr(D, "reselect", None),
         "cold_refit": getattr(D, "cold", None),
         "drive_timing": drive_timing(D) or None,
         "monitor_gain": monitor_gain(D) or None,
@@ -105,7 +107,7 @@ def unverified_suggestions(D) -> list:
     why = D.nothing_held_out()
     chain = D.chain or []
     for e in D.unverified:
-        ev = D.rounds[chain.index(e)][e.key] if e in chain else {}
+        ev = D.rounds[taken_rounds(D)[0] + chain.index(e)][e.key] if e in chain else {}
         reason = (f"nothing could be held out ({why}): kept on the training data alone (delta BIC "
                   f"{ev.get('delta_bic', float('nan')):+.1f}), never checked on data it was not fitted to; "
                   f"not applied")
@@ -204,6 +206,8 @@ def conclusion(D) -> str:
     else:
         parts.append("no missing physics found")
     parts += raised_phrases(D.raised)
+    if reselect_phrase(D):
+        parts.append(reselect_phrase(D))
     timed = drive_timing(D)
     if timed:
         parts.append(f"the drive's timing was fitted with the model in {len(timed)} of {len(D.dataset.recordings)} "
@@ -269,6 +273,26 @@ def conclusion(D) -> str:
     elif not D.held_out:
         parts.append(f"nothing could be held out ({D.nothing_held_out()})")
     return "; ".join(parts)
+
+
+def taken_rounds(D) -> tuple:
+    """(first, last + 1): the indices in D.rounds of the selection whose entries were kept
+    (the rounds before it ran at a coarser N when nothing was kept there or when the
+    selection was run again at a finer N; a selection run again and not taken follows it)."""
+    return getattr(D, "taken", None) or (0, len(D.rounds))
+
+
+def reselect_phrase(D) -> str | None:
+    """What the selection run again at the finer N found, and which model was taken."""
+    r = getattr(D, "reselect", None)
+    if not r:
+        return None
+    first, second = " + ".join(r["first"]), " + ".join(r["second"]) or "nothing"
+    N2 = f" (at N = {r['second_N']})" if r["second_N"] != r["N_fine"] else ""
+    won = f"{second} taken" if r["kept"] == "second" else f"{first} stands"
+    return (f"run again at N = {r['N_fine']}, the selection kept {second}{N2}: {r['measure']} RMSE "
+            f"{r['second_rmse'] * 1e6:.3g} um, BIC {r['second_bic']:.1f}, against {first} refitted there at "
+            f"{r['first_fine_rmse'] * 1e6:.3g} um, BIC {r['first_bic']:.1f}: {won} (the lower BIC)")
 
 
 def tried(D) -> dict:
@@ -659,8 +683,13 @@ def to_markdown(D, report: dict, plots: dict) -> str:
     L += ["", "## Candidates", ""]
     L += ["Each candidate is first screened (a score test: the BIC change a first fitting step predicts); the "
           "shortlisted ones are fitted in full.", ""]
+    lo, hi = taken_rounds(D)
     for i, rnd in enumerate(D.rounds):
-        L += [f"Round {i + 1} (against {'the baseline' if i == 0 else ' + '.join(e.name for e in (D.chain or D.kept)[:i])}):", "",
+        against = "the baseline" if i == lo else " + ".join(e.name for e in (D.chain or D.kept)[:i - lo])
+        if not lo <= i < hi:
+            against = ("a selection at a coarser N, not taken" if i < lo else
+                       "a selection run again at a finer N, not taken")
+        L += [f"Round {i + 1} (against {against}):", "",
               "| candidate | screen: predicted delta BIC | delta BIC | held-out RMSE (um) | held-out reduction | "
               "parameters |", "|---|---|---|---|---|---|"]
         for name, ev in rnd.items():

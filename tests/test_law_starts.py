@@ -153,3 +153,66 @@ def test_the_scan_is_bounded_on_large_datasets(monkeypatch):
     used = {r.condition()[0] for r in seen["train"]}
     assert len(seen["train"]) <= LEVEL_VOLTAGES * LEVEL_RECORDINGS
     assert min(used) == volts[0] and max(used) == volts[-1] and len(used) == LEVEL_VOLTAGES
+
+
+def test_the_spline_through_a_fitted_law_passes_through_it_at_its_knots():
+    """catalog._spline_through: the spline law started from a fitted Eq. (21) law (the one
+    an exponential law's dataset kept at 18.5 um held out against 1 um noise): equal to it
+    at its THROUGH_KNOTS knots, within 0.06 decades between them above the floor's corner,
+    and None for a law that does not fall over the spline's fields."""
+    from diagnosis.catalog import THROUGH_KNOTS, spline_knots
+    from dfa_model.physics.dielectrics import from_parameters
+    p = preset("vshape-table1").replace(N=N, law="linear", m_rho=-2.4786e5, q_rho=1.6423e13, rho_min=2.0738e11)
+    q = _entry("spline").through(p, CTX)
+    assert q.law == "spline" and q.n_knots == THROUGH_KNOTS
+    E_k = np.geomspace(*spline_knots(p, CTX.V_max), THROUGH_KNOTS)
+    law, spline = from_parameters(p), from_parameters(q)
+    assert np.allclose(np.log(spline.rho(E_k)), np.log(law.rho(E_k)), atol=1e-9)
+    E = np.geomspace(E_k[0], E_k[-2], 50)      # below the last interval, where the floor's corner is
+    assert np.max(np.abs(np.log10(spline.rho(E) / law.rho(E)))) < 0.06
+    assert _entry("spline").through(p.replace(m_rho=2.4786e5), CTX) is None        # rising
+    assert _entry("spline").through(p.replace(m_rho=0.0), CTX) is None             # constant
+    assert _entry("spline").through(q, CTX) is None                                 # a spline already
+
+
+def test_the_spline_is_fitted_from_a_rival_law_that_leaves_the_mismatch_unexplained(monkeypatch):
+    """diagnose._through_rival: when Eq. (21) passes acceptance, beats the spline's own fit
+    and still leaves 2+ noises, the spline is fitted again from Eq. (21)'s law and replaces
+    its own fit when its BIC is lower (the record says where it started and how far it
+    got); not when Eq. (21) reaches the noise or fits worse than the spline. Fits stubbed."""
+    import importlib
+    from types import SimpleNamespace as NS
+    dg = importlib.import_module("diagnosis.diagnose")
+    monkeypatch.setattr(dg, "_spec", lambda p, ctx, entries: [])
+    spline, eq21 = _entry("spline"), _entry("Eq. 21")
+    base = preset("vshape-table1").replace(N=N)
+    law = base.replace(law="linear", m_rho=-2.4786e5, q_rho=1.6423e13, rho_min=2.0738e11)
+
+    def res(err, bic, params):
+        return NS(heldout_rmse=err, train_rmse=err, bic=bic, sigma=1e-6, params=params, values={}, stderr={},
+                  aic=bic, model_values=lambda keys: {})
+    monkeypatch.setattr(dg, "_evidence", lambda f, ref: {"heldout_rmse": f.heldout_rmse, "delta_bic": f.bic - ref.bic})
+    current = res(118e-6, 0.0, base)
+    made = []
+
+    def fake(dataset, spec, base, **kw):
+        made.append(base)
+        return res(4e-6, -150000.0 - 1000 * len(made), base)
+    monkeypatch.setattr(dg, "fit", fake)
+    prepared = {eq21.key: (eq21, base), spline.key: (spline, base)}
+    for name, (e21, b21, espl, bspl, tried) in {
+            "Eq. 21 unexplained": (18.5e-6, -136697.0, 115e-6, -15863.0, True),
+            "Eq. 21 at the noise": (1.5e-6, -136697.0, 115e-6, -15863.0, False),
+            "the spline fits better": (18.5e-6, -136697.0, 10e-6, -140000.0, False)}.items():
+        made.clear()
+        fits = {eq21.key: res(e21, b21, law), spline.key: res(espl, bspl, base.replace(law="spline"))}
+        ev = {k: {"screen": {}, "fitted": True} for k in fits}
+        dg._through_rival(None, fits, prepared, ev, [], current, CTX, None, None, lambda s: None)
+        assert bool(made) == tried, name
+        if tried:
+            assert made[0].law == "spline" and made[0].n_knots == 4       # from Eq. (21)'s law, then more knots
+            assert [m.n_knots for m in made[1:]] == list(range(5, 7))
+            assert fits[spline.key].heldout_rmse == 4e-6 and fits[spline.key].params.n_knots == 6
+            assert ev[spline.key]["through"]["from"] == eq21.key and ev[spline.key]["through"]["taken"]
+        else:
+            assert fits[spline.key].heldout_rmse == espl and "through" not in ev[spline.key]
