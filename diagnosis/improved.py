@@ -179,13 +179,16 @@ def raised_phrases(raised: list) -> list:
         while j + 1 < len(raised) and raised[j + 1].get("after") == raised[i].get("after"):
             j += 1
         a, b, after = raised[i], raised[j], raised[i].get("after")
+        if after == RESELECTED:
+            out.append(f"N raised from {a['N']} to {a['N_fine']} after the selection kept "
+                       f"{' + '.join(a['kept_first'])}: at N = {a['N_fine']} it removed {a['cut_ratio']:.0%} of the "
+                       f"squared error it removed at N = {a['N']} and left {a['error'] * 1e6:.3g} -> "
+                       f"{a['error_fine'] * 1e6:.3g} um, unexplained at both: the selection was run again there")
+            i += 1
+            continue
         when, whose = ("before the selection", "the baseline's") if after is None else \
             ("after the selection kept nothing (resolution last)", "the baseline's") \
-            if after == NOTHING_KEPT else \
-            (f"after the selection kept {' + '.join(a['kept_first'])} (its cut of the squared error shrank to "
-             f"{a['cut_ratio']:.0%} at the finer N while the mismatch stayed unexplained: the selection was run "
-             f"again there)", "the first selection's model's") \
-            if after == RESELECTED else (f"after {after} was kept", "the kept model's")
+            if after == NOTHING_KEPT else (f"after {after} was kept", "the kept model's")
         out.append(f"N raised from {a['N']} to {b['N_fine']} {when}: {whose} error {a['error'] * 1e6:.3g} -> "
                    f"{b['error_fine'] * 1e6:.3g} um (the model's own resolution, not missing physics)"
                    + (f"; {b['dropped']} dropped there: its gain did not hold at the finer N (it took up the "
