@@ -47,7 +47,7 @@ from dataclasses import dataclass, field, replace
 from dfa_model.interrupt import stop_pool
 
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
-from .fit import evaluate, fit, local_executor
+from .fit import evaluate, fit, heldout_common_gain, local_executor
 from .improved import NOTHING_KEPT, RESELECTED
 from .levels import voltage_levels
 from .locate import condition_trends, locate
@@ -122,6 +122,7 @@ class Diagnosis:
     cold: dict | None = None                   # the final model's refit from neutral nuisances (_cold_refit)
     taken: tuple | None = None                 # (first, last + 1): the rounds of the selection taken (None: all)
     reselect: dict | None = None               # the selection run again at the finer N (_reselect_due)
+    calibration: dict | None = None            # the held-out error with the held-out monitors' common gain (_calibration)
 
     @property
     def held_out(self) -> bool:
@@ -337,10 +338,12 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
             kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
                                                          say, fine, before, refits, RAISE_MAX - len(raised))
         current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
+        calibration = _calibration(dataset, current, executor, say)
         final_windows = locate(dataset, current) if current is not f0 else None
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
                          final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
-                         raised=raised, suggested=suggested, cold=cold, taken=taken, reselect=reselect)
+                         raised=raised, suggested=suggested, cold=cold, taken=taken, reselect=reselect,
+                         calibration=calibration)
     except BaseException:
         if own:                  # Ctrl-C or an error: the workers' runs are not waited for
             stop_pool(executor)
@@ -962,6 +965,30 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
         p, spec = _prepared(fb, nominal_kept, ctx)
         final = fit(dataset, spec, base=p, holdout=holdout, executor=executor, warm=current, max_nfev=CANDIDATE_NFEV)
     return nominal_kept, final, rec
+
+
+def _calibration(dataset, f, executor, say) -> dict | None:
+    """A second account of a held-out error the final model f leaves at UNEXPLAINED noises
+    or more while it reaches the noise in training: the held-out condition's voltage
+    monitors' common gain (fit.heldout_common_gain). It does not change the verdict - the
+    training conditions cannot tell a calibration from a force the model misses at the
+    held-out one - but says which it could be. On a series resistance under unipolar
+    pulses (lab_fine, trial seed 854389777, dataset 5) the model left 5.46 um held out
+    against 2.5 um noise at R_s within 1.2 %; its held-out monitors read +0.31, +0.18 and
+    +0.49 % (drawn), and with them exact 2.83 um. None where it does not apply or cannot
+    run."""
+    u = _unexplained(f)
+    if u is None or u[1] != "held-out" or f.train_rmse >= UNEXPLAINED * f.sigma:
+        return None
+    try:
+        c = heldout_common_gain(dataset, f, executor)
+    except Exception as exc:       # a second account only: the verdict stands without it
+        say(f"the held-out monitors' common gain could not be fitted ({type(exc).__name__}: {exc})")
+        return None
+    if c is not None:
+        say(f"with the held-out monitors' common gain fitted as well: held out {_um(c['rmse'])} ("
+            + ", ".join(f"{x['gain']:+.2%}" for x in c["conditions"]) + ")")
+    return c
 
 
 def _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say) -> tuple:

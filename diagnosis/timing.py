@@ -76,12 +76,16 @@ def nuisances(rec) -> dict:
     return out
 
 
-def gains(recs) -> list:
+def gains(recs, common: bool = False) -> list:
     """The monitors' gain nuisances of recordings `recs`: for each condition with two or
     more recordings whose drive was read off their record, (their indices in recs, C) with
     C orthonormal contrasts (n x n-1, columns orthogonal to ones: Helmert's). The gains are
     C a: they sum to zero over the condition, and a ~ N(0, GAIN_PRIOR^2) i.i.d. is the
-    per-recording prior restricted to that subspace. Only recordings that hold their last
+    per-recording prior restricted to that subspace. common: C is a whole orthonormal basis
+    (n x n: the contrasts, then ones / sqrt(n)), the condition's common gain free too under
+    the same per-recording prior (a condition of one recording included) - only where the
+    physics is fixed (fit.heldout_common_gain): in a fit of the physics it takes up forces
+    the model misses at that condition. Only recordings that hold their last
     level GAIN_HOLD s or more: under a polarity inversion throughout, with no rest before
     it, the fitted sensor zero takes up the static stroke a gain sets, the gain shows only in
     the switches' transients, and on the lab rig's nulls it wandered to 2-2.8 % (4-6 prior
@@ -91,6 +95,9 @@ def gains(recs) -> list:
     for j, r in enumerate(recs):
         if r.switches is not None and len(r.switches) and r.levels[-1] and r.duration - r.reset_end >= GAIN_HOLD:
             by.setdefault(r.condition(), []).append(j)
+    if common:
+        return [(js, np.column_stack([helmert(len(js)), np.full(len(js), 1.0 / math.sqrt(len(js)))]))
+                for js in by.values()]
     return [(js, helmert(len(js))) for js in by.values() if len(js) >= 2]
 
 
