@@ -281,23 +281,30 @@ def conclusion(D) -> str:
 def calibration_phrase(D) -> str | None:
     """What the held-out monitors' common gain makes of the held-out error (diagnose.
     _calibration): whether a calibration within its prior (2 SDs) brings it within
-    UNEXPLAINED noises."""
+    UNEXPLAINED noises where the same refit without it does not."""
     from .diagnose import UNEXPLAINED
     c = getattr(D, "calibration", None)
     if not c:
         return None
-    gains = ", ".join(f"{x['gain']:+.2%} at {x['voltage'] / 1e3:.3g} kV, {x['force']:.3g} N" for x in c["conditions"])
-    sd = max(x["prior_sd"] for x in c["conditions"])
-    ratio = c["rmse"] / D.final.sigma
-    within = all(abs(x["gain"]) <= 2 * x["prior_sd"] for x in c["conditions"])
-    head = (f"with the held-out condition's voltage monitors' common gain fitted as well ({gains}; prior SD "
-            f"{sd:.2%}) the held-out RMSE is {c['rmse'] * 1e6:.3g} um, {ratio:.1f}x the noise")
+    conds = c["conditions"]
+    gains = ", ".join(f"{x['gain']:+.2%} at {x['voltage'] / 1e3:.3g} kV, {x['force']:.3g} N (prior SD "
+                      f"{x['prior_sd']:.2%})" for x in conds)
+    sigma = D.final.sigma
+    ratio, ratio0 = c["rmse"] / sigma, c.get("rmse_without", D.final.heldout_rmse) / sigma
+    within = all(abs(x["gain"]) <= 2 * x["prior_sd"] for x in conds)
+    which = "condition's" if len(conds) == 1 else "conditions'"
+    head = (f"refitted with the held-out {which} voltage monitors' common gain free ({gains}), the held-out RMSE is "
+            f"{c['rmse'] * 1e6:.3g} um, {ratio:.1f}x the noise ({ratio0:.1f}x without it)")
+    if ratio0 < UNEXPLAINED:
+        return (head + ": the held-out recordings' own nuisances, refitted, already bring it within "
+                f"{UNEXPLAINED:g} noises (heldout_common_gain)")
     if ratio < UNEXPLAINED and within:
-        return (head + ": their calibration could account for the mismatch, and the training conditions cannot tell "
-                "it from a force the model misses there - check the monitors' calibration, or hold out another "
-                "condition (heldout_common_gain)")
-    why = "a gain beyond 2 prior SDs" if not within else "still unexplained"
-    return head + f" ({why}): not the monitors' calibration alone (heldout_common_gain)"
+        return (head + ": a calibration within its prior would account for the mismatch, and the training "
+                "conditions cannot tell it from a force the model misses there - check the monitors' calibration, "
+                "or hold out another condition (heldout_common_gain)")
+    why = [w for w, bad in (("a gain beyond 2 prior SDs", not within), ("still unexplained", ratio >= UNEXPLAINED))
+           if bad]
+    return head + f" ({', '.join(why)}): not the monitors' calibration alone (heldout_common_gain)"
 
 
 def taken_rounds(D) -> tuple:
