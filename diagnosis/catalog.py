@@ -102,11 +102,11 @@ class Entry:
     variant: str = ""
     shows: Callable[[Parameters], tuple] | tuple = ()   # model keys to report (default: the spec's keys)
     # the next, more flexible form to fit from a fitted one (None: no more): its
-    # complexity chosen by the data (diagnose._more_shape)
+    # complexity chosen by the data (rounds._more_shape)
     refine: Callable[[Parameters, Context], Parameters | None] | None = None
     # the form through a rival form's fitted law (a fit of another form of the entry), or
     # None when it cannot carry that law's shape: where this form also starts when the
-    # rival fits better yet leaves the mismatch unexplained (diagnose._through_rival)
+    # rival fits better yet leaves the mismatch unexplained (rounds._through_rival)
     through: Callable[[Parameters, Context], Parameters | None] | None = None
 
     @property
@@ -248,7 +248,7 @@ PHYSICS = [
           # floor within the probed fields
           starts=lambda p, ctx: [{}, _slope_start(p, ctx, -3.0, 0.5), *_levels_line(p, ctx)]),
     # the knots are the data's choice: fitted at 2, then one more while the BIC falls
-    # (diagnose._more_shape), each fit starting from the last law
+    # (rounds._more_shape), each fit starting from the last law
     Entry("field_dependent_resistivity", _spline_law, _spline_spec,
           "the liquid's resistivity depends on its field: a monotone spline of ln rho_l in ln |E_l|, with as many "
           "knots as the data support",

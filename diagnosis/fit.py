@@ -657,7 +657,7 @@ def evaluate(dataset, fr: FitResult, params: Parameters, executor=None) -> FitRe
     nothing fitted again but each sensor's zero and time shift (align): one run per
     recording, training and held out, in one batch. A feasible point of the refit at
     `params` that starts there: the refit's training residuals can only be smaller, so a
-    check that this point passes needs no refit (diagnose._resolution_check). The result
+    check that this point passes needs no refit (resolution._resolution_check). The result
     has fr's spec, k and n (its BIC compares with fits of the same data); `notes` says it
     was evaluated, not fitted."""
     wall = time.perf_counter()

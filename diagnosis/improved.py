@@ -167,7 +167,7 @@ def write_protocols(D, out: Path) -> dict:
 
 
 NOTHING_KEPT = "(nothing kept)"   # a Diagnosis.raised step's `after` when the rounds kept nothing (resolution last)
-RESELECTED = "(selection run again)"   # ... when the kept set's cut shrank at the finer N (diagnose._reselect_due)
+RESELECTED = "(selection run again)"   # ... when the kept set's cut shrank at the finer N (resolution._reselect_due)
 
 
 def raised_phrases(raised: list) -> list:

@@ -282,7 +282,7 @@ def calibration_phrase(D) -> str | None:
     """What the held-out monitors' common gain makes of the held-out error (diagnose.
     _calibration): whether a calibration within its prior (2 SDs) brings it within
     UNEXPLAINED noises where the same refit without it does not."""
-    from .diagnose import UNEXPLAINED
+    from .rules import UNEXPLAINED
     c = getattr(D, "calibration", None)
     if not c:
         return None
@@ -432,7 +432,7 @@ def training_only(rows: dict, sigma: float, heldout: float | None) -> list:
     out: 1.77 um in training (1.4 noises), 8.38 um held out against the baseline's 4.79 (each
     recording probes one field there, so nothing pins the knee). [{candidate,
     train_rmse, heldout_rmse}], best held-out first."""
-    from .diagnose import UNEXPLAINED
+    from .rules import UNEXPLAINED
     if heldout is None:
         return []
     out = [{"candidate": k, "train_rmse": r["train_rmse"], "heldout_rmse": r["heldout_rmse"]}
@@ -777,7 +777,7 @@ def write(D, out) -> dict:
 
 def _first_check(r: dict) -> str:
     """The resolution check's first finer N, when the kept entries' cut shrank there and it
-    was made again at twice those elements (diagnose._shrinks), as a phrase."""
+    was made again at twice those elements (rules._shrinks), as a phrase."""
     fc = r.get("first_check")
     if not fc:
         return ""

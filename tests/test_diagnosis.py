@@ -14,6 +14,7 @@ from dfa_model import preset
 from dfa_model.io.recordings import read_dataset
 from dfa_model.io.synthetic import Measurement, generate_dataset
 from improved_support import check_improved
+from diagnosis_parts import dg, patch
 
 NOMINAL = preset("vshape-table1").replace(N=41, rho_l=3e12)
 TRUTH = NOMINAL.replace(rho_l=2e12)
@@ -163,7 +164,8 @@ def test_a_strong_screen_is_fitted_while_the_mismatch_is_large():
     physics' at 8x the noise. While the current model's error is STRONG_ERROR noises or
     more, a form whose first step predicts a BIC fall of BIC_MIN or more is fitted
     whatever its held-out prediction; near the noise the held-out veto stands."""
-    from diagnosis.diagnose import BIC_MIN, shortlist
+    from diagnosis.rounds import shortlist
+    from diagnosis.rules import BIC_MIN
     screens = {
         "series_resistance": {"predicted_delta_bic": -400.0, "chi2_reduction": 420.0, "heldout_ratio": 0.6},
         "field_dependent_resistivity (spline)": {"predicted_delta_bic": -300.0, "chi2_reduction": 320.0,
@@ -179,7 +181,7 @@ def test_a_strong_screen_is_fitted_while_the_mismatch_is_large():
     # no verdict of "unexplained mismatch" before the strong screens were fitted: a branch
     # under unipolar pulses left 2.3 noises, its first step predicted a held-out loss, and
     # fitted it cut the held-out error 6.72 -> 3.75 um (STRONG_ERROR had been 3)
-    from diagnosis.diagnose import STRONG_ERROR, UNEXPLAINED
+    from diagnosis.rules import STRONG_ERROR, UNEXPLAINED
     assert STRONG_ERROR <= UNEXPLAINED
 
 
@@ -189,10 +191,8 @@ def test_a_training_error_far_above_the_noise_is_unexplained():
     held out: 3.05 um held out, 27 um in training, 2.64 um noise): not "no missing
     physics found" but an unexplained mismatch in training, and its strong screens are
     fitted (diagnose._worst_error). Within the noise both ways: explained."""
-    import importlib
     from types import SimpleNamespace as NS
     from diagnosis.report import conclusion, unexplained
-    dg = importlib.import_module("diagnosis.diagnose")
     sigma = 2.64e-6
 
     def D(held, train):
@@ -219,12 +219,10 @@ def test_a_fitted_sensor_zero_is_told_as_blind_to_a_stiffness():
     41.7 N/m was missed so and named with a 0.5 s rest stretch (lab rig). The verdict
     says so when every zero was fitted; a recording whose model rests on the stop for
     REST_MIN samples or more reads its zero and is not listed."""
-    import importlib
     from types import SimpleNamespace as NS
     import numpy as np
     from diagnosis.fit import REST_MIN
     from diagnosis.report import conclusion, zeros_fitted
-    dg = importlib.import_module("diagnosis.diagnose")
     t = np.arange(0, 2.0, 1e-3)
     moving = 1e-3 * (1 - np.exp(-t / 0.01)) + 5e-6              # starts with the drive (offset 5 um)
     rests = np.where(t < 0.1, 0.0, 1e-3) - 3e-6                  # 100 samples at rest first (offset -3 um)
@@ -249,11 +247,9 @@ def test_a_drive_that_never_holds_a_polarity_is_told_as_blind_to_the_charge():
     1.1 noises: the verdict says so when every recording is such a drive and neither is
     named. A reset + hold (its 10 s DC), unipolar pulses then DC, and a staircase (one
     polarity over its steps) hold a polarity long enough; pauses at 0 V split nothing."""
-    import importlib
     from types import SimpleNamespace as NS
     import numpy as np
     from diagnosis.report import HOLD_MIN, charge_hidden, conclusion, longest_hold
-    dg = importlib.import_module("diagnosis.diagnose")
 
     def rec(name, switches, levels, T):
         return NS(name=name, switches=np.array(switches, float), levels=tuple(levels), duration=T)
@@ -307,8 +303,6 @@ def test_a_stopped_search_resumes_exactly_where_it_stopped(null):
     warm start takes them) and its timing. Resumed for one evaluation it cannot step and
     returns the same cost; resumed to the budget it ends where one search with that
     budget ends; its runs and time count the first part too."""
-    import importlib
-    dg = importlib.import_module("diagnosis.diagnose")
     from diagnosis.catalog import PHYSICS
     from diagnosis.fit import fit
     D = null[0]
@@ -340,8 +334,6 @@ def test_several_starts_race_a_few_evaluations_and_the_leader_goes_on(monkeypatc
     _probe_passes asks a held-out fall of SCREEN_HELDOUT."""
     from types import SimpleNamespace as NS
 
-    import importlib
-    dg = importlib.import_module("diagnosis.diagnose")
     calls = []
     costs = {1.0: 5.0, 2.0: 3.0, 3.0: 4.0}
 
@@ -358,7 +350,7 @@ def test_several_starts_race_a_few_evaluations_and_the_leader_goes_on(monkeypatc
             raise ValueError("the model does not run there")
         return NS(cost=costs[base["a"]], converged=base.get("done", False), name=base["a"])
 
-    monkeypatch.setattr(dg, "fit", fake_fit)
+    patch(monkeypatch, "fit", fake_fit)
 
     class P(dict):
         def replace(self, **kw):
@@ -409,8 +401,6 @@ def test_the_data_choose_the_spline_knots(monkeypatch):
     search (checked here with stand-in fits; the real fits in test_improved_spline.py)."""
     from types import SimpleNamespace as NS
 
-    import importlib
-    dg = importlib.import_module("diagnosis.diagnose")
     from diagnosis.catalog import PHYSICS, Context
     entry = next(e for e in PHYSICS if e.variant == "spline")
     nominal = preset("vshape-table1").replace(N=11)
@@ -423,7 +413,7 @@ def test_the_data_choose_the_spline_knots(monkeypatch):
         assert [f.key for f in spec[-(base.n_knots - 1):]] == [f"d_rho{k}" for k in range(1, base.n_knots)]
         return NS(params=base.replace(d_rho1=base.d_rho1 + 0.1), bic=bic[base.n_knots], heldout_rmse=1e-6, sigma=1e-7)
 
-    monkeypatch.setattr(dg, "fit", fake_fit)
+    patch(monkeypatch, "fit", fake_fit)
     p2 = entry.prepare(nominal, ctx).replace(d_rho1=1.0)
     assert p2.law == "spline" and p2.n_knots == 2
     first = NS(params=p2, bic=bic[2], heldout_rmse=2e-6, sigma=1e-7)

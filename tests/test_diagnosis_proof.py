@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from dfa_model.physics.dielectrics import from_parameters
-from diagnosis.diagnose import HELDOUT_MIN, MAX_ROUNDS
+from diagnosis.rules import HELDOUT_MIN, MAX_ROUNDS
 from diagnosis.proofs import CASES, E6, run
 from improved_support import check_improved
 

@@ -16,6 +16,7 @@ from dfa_model import preset
 from dfa_model.io.recordings import read_dataset
 from dfa_model.io.synthetic import Measurement, generate_dataset
 from diagnosis.fit import InProcess
+from diagnosis_parts import dg, patch
 
 
 def _stubbed_fit(err, bic, N, sigma=1e-6):
@@ -32,18 +33,16 @@ def _stub_point(monkeypatch, dg, err, bic, sigma=1e-6):
     def point(dataset, fr, params, executor=None):
         calls.append(params.N)
         return _stubbed_fit(err, bic, params.N, sigma)
-    monkeypatch.setattr(dg, "evaluate", point)
+    patch(monkeypatch, "evaluate", point)
     return calls
 
 
 def _stubbed_diagnose(monkeypatch, without=None):
     """diagnosis.diagnose with the baseline's free parameters stubbed empty and, given
     `without`, _without (the kept model without an entry) stubbed by it."""
-    import importlib
-    dg = importlib.import_module("diagnosis.diagnose")
-    monkeypatch.setattr(dg, "baseline_spec", lambda p, ctx: [])
+    patch(monkeypatch, "baseline_spec", lambda p, ctx: [])
     if without is not None:
-        monkeypatch.setattr(dg, "_without", without)
+        patch(monkeypatch, "_without", without)
     return dg
 
 
@@ -62,9 +61,8 @@ def _one_doubling():
     """diagnosis.diagnose.RAISE_MAX = 1 while in the context: no leap of two doublings
     after a kept entry (_leap), so a test reaches the resolution check's own rules with
     what the rounds kept at N = 21."""
-    import importlib
     mp = pytest.MonkeyPatch()
-    mp.setattr(importlib.import_module("diagnosis.diagnose"), "RAISE_MAX", 1)
+    patch(mp, "RAISE_MAX", 1)
     return mp
 
 
@@ -144,7 +142,7 @@ def test_physics_that_holds_is_refitted_where_the_model_resolves_the_data(monkey
     for fine_base, fine_kept, refined in ((5.7e-6, 3.0e-6, True), (8.0e-6, 5.5e-6, False)):
         points = _stub_point(monkeypatch, dg, 1.05 * fine_kept, -1350.0)
         fits = iter([res(fine_base, -400.0, 41), res(fine_kept, -1400.0, 41)])
-        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        patch(monkeypatch, "fit", lambda *a, **k: next(fits))
         kept, final, rec = dg._resolution_check(None, base, None, [entry], current, f0, None, None, lambda s: None)
         assert kept == [entry] and not rec["resolution_only"], rec
         assert bool(rec.get("refined")) is refined and points == [41] and rec["kept_fine"] == "refitted"
@@ -154,7 +152,7 @@ def test_physics_that_holds_is_refitted_where_the_model_resolves_the_data(monkey
     # evaluated; one of another fit (an entry kept since) is not used
     points = _stub_point(monkeypatch, dg, 3.2e-6, -1350.0)
     fits = iter([res(5.7e-6, -400.0, 41)])
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+    patch(monkeypatch, "fit", lambda *a, **k: next(fits))
     kept, final, rec = dg._resolution_check(None, base, None, [entry], current, f0, None, None, lambda s: None,
                                             refits=[(current, res(3.0e-6, -1400.0, 41))])
     assert rec["kept_fine_rmse"] == 3.0e-6 and final.heldout_rmse == 3.0e-6 and points == []
@@ -224,7 +222,7 @@ def test_resolution_first_raises_N_while_the_finer_baseline_fits_better(monkeypa
     ]
     for errs, N_end in cases:
         fits = iter([res(e, 21) for e in errs])
-        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        patch(monkeypatch, "fit", lambda *a, **k: next(fits))
         b, f, steps, _ = dg._resolve(None, base, None, res(11e-6, 21), None, None, lambda s: None)
         assert b.N == N_end and len(steps) == {21: 0, 41: 1, 81: 2}[N_end]
         assert [s["N_fine"] for s in steps] == [41, 81][:len(steps)]
@@ -280,7 +278,7 @@ def test_resolution_first_after_each_kept_entry(monkeypatch):
         def fake(dataset, spec, base, **kw):
             calls.append(base.N)
             return res(next(fits), base.N)
-        monkeypatch.setattr(dg, "fit", fake)
+        patch(monkeypatch, "fit", fake)
         return dg._raise_kept(None, base, None, kept, res(10.7e-6, 21), f0, before, None, None, lambda s: None,
                               budget), calls
 
@@ -323,11 +321,11 @@ def test_resolution_first_after_each_kept_entry(monkeypatch):
     assert b.N == 41 and f.params.N == 41 and steps[-1]["dropped"] == "inertia" and calls == [41, 41, 41]
     # a kept model under UNEXPLAINED noises is not leapt for
     made = []
-    monkeypatch.setattr(dg, "fit", lambda dataset, spec, base, **kw: made.append(base.N) or res(1.8e-6, base.N))
+    patch(monkeypatch, "fit", lambda dataset, spec, base, **kw: made.append(base.N) or res(1.8e-6, base.N))
     assert dg._raise_kept(None, base, None, [entry], res(1.9e-6, 21), f0, f0, None, None, lambda s: None,
                           2)[5] == [] and made == [41]
     # within RAISE_FLOOR noises nothing is tried
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: pytest.fail("no refit expected"))
+    patch(monkeypatch, "fit", lambda *a, **k: pytest.fail("no refit expected"))
     assert dg._raise_kept(None, base, None, [entry], res(1.4e-6, 21), f0, f0, None, None, lambda s: None,
                           2)[5] == []
 
@@ -353,7 +351,7 @@ def test_the_last_entry_is_checked_when_the_finer_baseline_fits_no_better(monkey
         points = _stub_point(monkeypatch, dg, 1.45e-6, -15500.0, 1.26e-6)
         fits = iter([res(7.32e-6, 0.0, 81), res(without, -15990.0 if dropped else -9000.0, 81)]
                     + ([res(1.40e-6, -16000.0, 81)] if dropped else [res(5.0e-6, -3000.0, 81)]))
-        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        patch(monkeypatch, "fit", lambda *a, **k: next(fits))
         kept, final, rec = dg._resolution_check(None, base, None, [branch, law], current, f0, None, None,
                                                 lambda s: None, before=before)
         assert "inconclusive" in rec and points == [81] and next(fits, None) is None
@@ -367,14 +365,14 @@ def test_the_last_entry_is_checked_when_the_finer_baseline_fits_no_better(monkey
     # was added to, when there is one: not fitted again
     points = _stub_point(monkeypatch, dg, 1.45e-6, -15500.0, 1.26e-6)
     fits = iter([res(7.32e-6, 0.0, 81), res(5.0e-6, -3000.0, 81)])
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+    patch(monkeypatch, "fit", lambda *a, **k: next(fits))
     kept, final, rec = dg._resolution_check(None, base, None, [branch, law], current, f0, None, None,
                                             lambda s: None, before=before,
                                             refits=[(before, res(1.90e-6, -9000.0, 81))])
     assert kept == [branch, law] and rec["marginal"][0]["rmse_without"] == 1.90e-6 and next(fits, None) is None
     # a single physics entry: nothing more is fitted once the premise fails
     fits = iter([res(7.32e-6, 0.0, 81)])
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+    patch(monkeypatch, "fit", lambda *a, **k: next(fits))
     kept, final, rec = dg._resolution_check(None, base, None, [branch], before, f0, None, None, lambda s: None,
                                             before=f0)
     assert kept == [branch] and final is before and "marginal" not in rec
@@ -403,7 +401,7 @@ def test_an_entry_kept_before_others_must_hold_on_top_of_them(monkeypatch):
         fits = iter([res(7.60e-6, 0.0, 41), res(4.40e-6, -40000.0, 41),
                      res(spring_without, -59995.0 if dropped else -50000.0, 41)]
                     + ([res(2.81e-6, -60000.0, 41)] if dropped else []))
-        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        patch(monkeypatch, "fit", lambda *a, **k: next(fits))
         kept, final, rec = dg._resolution_check(None, base, None, [spring, eps, branch], current, f0, None, None,
                                                 lambda s: None, before=before)
         assert dropped_by == [branch.key, spring.key]
@@ -426,7 +424,7 @@ def test_an_entry_is_checked_deeper_when_the_rest_is_not_resolved(monkeypatch):
     dg = _stubbed_diagnose(monkeypatch, _same_base)
     # the set's own cut (_shrinks: 73.9 um^2 at N = 21, 49.6 at 41) would take the whole
     # check to N = 81 first: this test is of the last entry's check alone
-    monkeypatch.setattr(dg, "RES_CUT", 0.0)
+    patch(monkeypatch, "RES_CUT", 0.0)
     law, inertia = _entry("field_dependent_resistivity (Eq. 21)"), _entry("inertia")
     res = partial(_stubbed_fit, sigma=1.26e-6)
     base = preset("vshape-table1").replace(N=21)
@@ -439,11 +437,11 @@ def test_an_entry_is_checked_deeper_when_the_rest_is_not_resolved(monkeypatch):
             err = {(202, 41): 1.71e-6, (650, 21): 7.0e-6, (270, 21): inertia_at_21, (171, 81): 1.40e-6}
             return res(err[(round(fr.heldout_rmse * 1e8), params.N)], -59000.0 if params.N == 81 else -60000.0,
                        params.N)
-        monkeypatch.setattr(dg, "evaluate", point)
+        patch(monkeypatch, "evaluate", point)
         fits = iter([res(7.25e-6, 0.0, 41), res(6.50e-6, -20000.0, 41), res(2.70e-6, -55000.0, 41)]
                     + ([res(1.37e-6, -60000.0, 81), res(1.36e-6, -60005.0, 81)] if dropped
                        else [res(1.70e-6, -60001.0, 41)]))
-        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        patch(monkeypatch, "fit", lambda *a, **k: next(fits))
         kept, final, rec = dg._resolution_check(None, base, None, [law, inertia], current, f0, None, None,
                                                 lambda s: None, before=before, budget=budget)
         law_rec = [m for m in rec["marginal"] if m["entry"] == law.key][0]
@@ -486,14 +484,14 @@ def test_a_cut_that_shrinks_with_the_elements_is_checked_at_twice_those(monkeypa
     for name, ((e0, ek), levels, budget) in cases.items():
         f0, current = res(e0, 0.0, 21), res(ek, -900.0, 21)
         points = {41 if i == 0 else 81: lv[1] for i, lv in enumerate(levels)}
-        monkeypatch.setattr(dg, "evaluate", lambda ds, fr, params, executor=None: res(points[params.N], -1300.0,
+        patch(monkeypatch, "evaluate", lambda ds, fr, params, executor=None: res(points[params.N], -1300.0,
                                                                                        params.N))
         order = []
         for i, (b, _, k) in enumerate(levels):
             n = 41 if i == 0 else 81
             order += [res(b, -400.0, n), res(k, -1400.0, n)]
         fits = iter(order)
-        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        patch(monkeypatch, "fit", lambda *a, **k: next(fits))
         said = []
         kept, final, rec = dg._resolution_check(None, base, None, [entry], current, f0, None, None, said.append,
                                                 budget=budget)
@@ -532,13 +530,13 @@ def test_a_last_entry_whose_cut_shrinks_is_checked_deeper(monkeypatch):
     base = preset("vshape-table1").replace(N=21)
     f0, before, current = res(4.45e-6, 21), res(1.57e-6, 21), res(1.162e-6, 21)
     points = {41: 1.16e-6, 81: 1.19e-6}
-    monkeypatch.setattr(dg, "evaluate", lambda ds, fr, params, executor=None: res(points[params.N], params.N))
+    patch(monkeypatch, "evaluate", lambda ds, fr, params, executor=None: res(points[params.N], params.N))
     fits = iter([res(4.40e-6, 41),      # the baseline at 41
                  res(1.415e-6, 41),     # inertia alone at 41
                  res(1.158e-6, 41),     # the kept model refitted at 41 (its cut on the point fell short)
                  res(1.199e-6, 81),     # inertia alone at 81
                  res(1.195e-6, 81)])    # the kept model refitted at 81 (the point did not pass)
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+    patch(monkeypatch, "fit", lambda *a, **k: next(fits))
     said = []
     kept, final, rec = dg._resolution_check(None, base, None, [inertia, law], current, f0, None, None, said.append,
                                             before=before, budget=2)
@@ -576,26 +574,26 @@ def test_a_model_left_unexplained_is_refitted_from_neutral_nuisances(monkeypatch
     def cold(dataset, spec, base=None, warm=None, **k):
         calls.append(warm)
         return res(3.4e-6, 4.3e-6, 2.97e4)
-    monkeypatch.setattr(dg, "fit", cold)
+    patch(monkeypatch, "fit", cold)
     final, rec = dg._cold_refit(None, None, [entry], warm, f0, None, None, lambda s: None)
     assert final.heldout_rmse == 3.4e-6 and rec["taken"] and rec["rmse"] == 10.4e-6 and calls == [None]
     # a refit that costs more is not taken
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: res(11e-6, 12e-6, 3e5))
+    patch(monkeypatch, "fit", lambda *a, **k: res(11e-6, 12e-6, 3e5))
     final, rec = dg._cold_refit(None, None, [entry], warm, f0, None, None, lambda s: None)
     assert final is warm and not rec["taken"] and rec["rmse_cold"] == 11e-6
     # nor one whose cost is lower by a hair and whose error is within RES_BETTER (a spline law: 6.9472 ->
     # 6.9471 um held out, taken, made the final model another fit than the tried entry's)
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: res(10.39e-6, 12.1e-6, 2.46e5))
+    patch(monkeypatch, "fit", lambda *a, **k: res(10.39e-6, 12.1e-6, 2.46e5))
     final, rec = dg._cold_refit(None, None, [entry], warm, f0, None, None, lambda s: None)
     assert final is warm and not rec["taken"]
     # not tried: within UNEXPLAINED noises both held out and in training, nothing kept, or the baseline
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: pytest.fail("no refit expected"))
+    patch(monkeypatch, "fit", lambda *a, **k: pytest.fail("no refit expected"))
     near = res(5.7e-6, 5.5e-6, 1e4)
     assert dg._cold_refit(None, None, [entry], near, f0, None, None, lambda s: None) == (near, None)
     assert dg._cold_refit(None, None, [], warm, f0, None, None, lambda s: None) == (warm, None)
     assert dg._cold_refit(None, None, [entry], f0, f0, None, None, lambda s: None) == (f0, None)
     # training at 2 noises with the held-out condition near the noise: tried
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: res(3.0e-6, 3.1e-6, 10.0))
+    patch(monkeypatch, "fit", lambda *a, **k: res(3.0e-6, 3.1e-6, 10.0))
     final, rec = dg._cold_refit(None, None, [entry], res(3.2e-6, 6.0e-6, 2e4), f0, None, None, lambda s: None)
     assert rec["taken"] and final.train_rmse == 3.1e-6
 
@@ -606,10 +604,8 @@ def test_close_rivals_are_compared_at_twice_the_elements(monkeypatch):
     better. Accepted rivals of another entry within TIE_SHARE of the best's fall are
     refitted at twice the elements and the lower BIC there is kept; a rival further off,
     or another form of the same entry, is not refitted. Fits stubbed."""
-    import importlib
     from types import SimpleNamespace as NS
-    dg = importlib.import_module("diagnosis.diagnose")
-    monkeypatch.setattr(dg, "_spec", lambda p, ctx, entries: [])
+    patch(monkeypatch, "_spec", lambda p, ctx, entries: [])
     res = partial(_stubbed_fit, sigma=2.13e-6)
     current = res(9.22e-6, 0.0, 41)
     fits = {"polarization_branch": res(3.78e-6, -28859.0, 41),
@@ -621,7 +617,7 @@ def test_close_rivals_are_compared_at_twice_the_elements(monkeypatch):
     def fake(dataset, spec, base=None, warm=None, **k):
         refits.append((base.N, warm.bic))
         return {-28859.0: res(3.56e-6, -40000.0, 81), -27374.0: res(3.22e-6, -47238.0, 81)}[warm.bic]
-    monkeypatch.setattr(dg, "fit", fake)
+    patch(monkeypatch, "fit", fake)
     ev = {k: {} for k in fits}
     pick, made = dg._tie_break(None, list(fits), "polarization_branch", fits, prepared, [], current, None, None,
                                None, lambda s: None, ev)
@@ -629,7 +625,7 @@ def test_close_rivals_are_compared_at_twice_the_elements(monkeypatch):
     assert refits == [(81, -28859.0), (81, -27374.0)]            # the two leaders only, at N = 81
     assert ev["polarization_branch"]["tie"]["kept"] == pick and "tie" not in ev["field_dependent_resistivity (Eq. 21)"]
     # resolution first after the entry is kept reuses that refit (the same call) instead of making it again
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: pytest.fail("the tie-break's refit is made again"))
+    patch(monkeypatch, "fit", lambda *a, **k: pytest.fail("the tie-break's refit is made again"))
     f0, fine = res(9.22e-6, 0.0, 41), res(7.5e-6, 0.0, 81)
     base, _, _, kept_fit, _, steps, _ = dg._raise_kept(None, preset("vshape-table1").replace(N=41), None,
                                                     [prepared[pick][0]], fits[pick], f0, f0, None, None,
@@ -681,7 +677,7 @@ def test_resolution_last_when_nothing_was_kept(monkeypatch):
     def fake(dataset, spec, base, **kw):
         calls.append(base.N)
         return NS(heldout_rmse=2.16e-6, train_rmse=2.2e-6, sigma=1.17e-6, heldout=["h"], params=base)
-    monkeypatch.setattr(dg, "fit", fake)
+    patch(monkeypatch, "fit", fake)
     base = preset("vshape-table1").replace(N=41)
     f0 = NS(heldout_rmse=2.19e-6, train_rmse=2.3e-6, sigma=1.17e-6, heldout=["h"], params=base)
     b, ff, step = dg._retry_finer(None, base, None, f0, [], None, None, lambda s: None, 1)
@@ -746,9 +742,9 @@ def test_the_selection_runs_again_where_a_kept_set_s_cut_shrinks(monkeypatch):
     }
     for name, (e0, ek, eb, ep, er, budget, due) in cases.items():
         f0, current = res(e0, 0.0, 21), res(ek, -20000.0, 21)
-        monkeypatch.setattr(dg, "evaluate", lambda ds, fr, params, executor=None: res(ep, -9000.0, params.N))
+        patch(monkeypatch, "evaluate", lambda ds, fr, params, executor=None: res(ep, -9000.0, params.N))
         fits = iter([res(eb, 0.0, 41), res(er, -12000.0, 41)])
-        monkeypatch.setattr(dg, "fit", lambda *a, **k: next(fits))
+        patch(monkeypatch, "fit", lambda *a, **k: next(fits))
         refits = []
         ff, fk, got = dg._reselect_due(None, base, None, [entry], current, f0, None, None, refits, None, budget)
         assert got == due, name

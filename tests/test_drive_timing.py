@@ -15,6 +15,7 @@ import pytest
 from dfa_model import preset
 from dfa_model.io.recordings import RecordingError, _regular_switches, read_dataset, retimed
 from dfa_model.io.synthetic import Measurement, generate_dataset
+from diagnosis_parts import dg, patch
 
 
 def _rec(switches, levels, duration=3.0, dt=1e-3):
@@ -269,14 +270,12 @@ def test_the_held_out_monitors_account_is_told_where_only_the_held_out_error_is_
     final model leaves 2 noises held out and reaches them in training; the conclusion then
     says whether a calibration within its prior brings the error within 2 noises. The
     verdict itself stays (unexplained mismatch)."""
-    import importlib
     from types import SimpleNamespace as NS
     from diagnosis.report import calibration_phrase
-    dg = importlib.import_module("diagnosis.diagnose")
     asked = []
     account = {"rmse": 2.83e-6, "rmse_without": 5.46e-6, "gains": {"a": 0.0031}, "runs": 9, "converged": True,
                "conditions": [{"voltage": 6000.0, "force": 3.0, "gain": 0.0032, "prior_sd": 0.0029}]}
-    monkeypatch.setattr(dg, "heldout_common_gain", lambda ds, f, ex: asked.append(f) or account)
+    patch(monkeypatch, "heldout_common_gain", lambda ds, f, ex: asked.append(f) or account)
     f = NS(heldout_rmse=5.46e-6, train_rmse=2.76e-6, sigma=2.52e-6)
     assert dg._calibration(None, f, None, lambda s: None) is account and asked == [f]
     for g in (NS(heldout_rmse=5.46e-6, train_rmse=5.2e-6, sigma=2.52e-6),    # training unexplained too

@@ -20,6 +20,7 @@ from diagnosis.fit import InProcess, fit
 from diagnosis.levels import LEVEL_STEPS, voltage_levels
 from diagnosis.model import rho_at
 from diagnosis.proofs import DRIVES, RIGS
+from diagnosis_parts import dg, patch
 
 N = 21
 CONDITIONS = [(5000.0, 5.0), (7000.0, 5.0), (8000.0, 5.0)]
@@ -90,7 +91,8 @@ def test_a_law_reaching_its_floor_between_the_fields_is_fitted(tmp_path):
     r = [rho for _, rho in ctx.levels]
     assert max(r) >= LEVELS_APART * min(r) and r[0] > r[-1]    # the levels fall with the field
     assert ctx.E_shape == ctx.levels[0][0] < ctx.E_ref
-    from diagnosis.diagnose import _multistart, _spec
+    from diagnosis.rounds import _multistart
+    from diagnosis.rules import _spec
     e = _entry("Eq. 21")
     p = e.prepare(f0.params, ctx)
     best, errors, _ = _multistart(ds, _spec(p, ctx, [e]), p, e.starts(p, ctx), None, ex, f0)
@@ -180,10 +182,8 @@ def test_the_spline_is_fitted_from_a_rival_law_that_leaves_the_mismatch_unexplai
     and still leaves 2+ noises, the spline is fitted again from Eq. (21)'s law and replaces
     its own fit when its BIC is lower (the record says where it started and how far it
     got); not when Eq. (21) reaches the noise or fits worse than the spline. Fits stubbed."""
-    import importlib
     from types import SimpleNamespace as NS
-    dg = importlib.import_module("diagnosis.diagnose")
-    monkeypatch.setattr(dg, "_spec", lambda p, ctx, entries: [])
+    patch(monkeypatch, "_spec", lambda p, ctx, entries: [])
     spline, eq21 = _entry("spline"), _entry("Eq. 21")
     base = preset("vshape-table1").replace(N=N)
     law = base.replace(law="linear", m_rho=-2.4786e5, q_rho=1.6423e13, rho_min=2.0738e11)
@@ -191,14 +191,14 @@ def test_the_spline_is_fitted_from_a_rival_law_that_leaves_the_mismatch_unexplai
     def res(err, bic, params):
         return NS(heldout_rmse=err, train_rmse=err, bic=bic, sigma=1e-6, params=params, values={}, stderr={},
                   aic=bic, model_values=lambda keys: {})
-    monkeypatch.setattr(dg, "_evidence", lambda f, ref: {"heldout_rmse": f.heldout_rmse, "delta_bic": f.bic - ref.bic})
+    patch(monkeypatch, "_evidence", lambda f, ref: {"heldout_rmse": f.heldout_rmse, "delta_bic": f.bic - ref.bic})
     current = res(118e-6, 0.0, base)
     made = []
 
     def fake(dataset, spec, base, **kw):
         made.append(base)
         return res(4e-6, -150000.0 - 1000 * len(made), base)
-    monkeypatch.setattr(dg, "fit", fake)
+    patch(monkeypatch, "fit", fake)
     prepared = {eq21.key: (eq21, base), spline.key: (spline, base)}
     for name, (e21, b21, espl, bspl, tried) in {
             "Eq. 21 unexplained": (18.5e-6, -136697.0, 115e-6, -15863.0, True),
