@@ -49,6 +49,8 @@ STRONG_ERROR = UNEXPLAINED  # while the current model's error is this many senso
 #                      "no missing physics" at 8x the noise). At the error the verdict calls unexplained, not 3x:
 #                      a polarization branch under unipolar pulses left 2.3 noises, its first step predicted a 1 %
 #                      held-out loss, and fitted it cut the held-out error 6.72 -> 3.75 um
+LATE_TOP = 3         # ... and while the round's fits leave it so, the best this many strong screens the share
+#                      (SCREEN_REL) left out are fitted too, each judged by START_NFEV evaluations (rounds._queue)
 
 
 def _unexplained(f) -> tuple | None:
