@@ -11,6 +11,7 @@ from dfa_model.io.fileio import write_atomic, write_text_atomic
 
 from .improved import entry_parameters, raised_phrases, write_improved, write_protocols
 from .levels import LEVEL_STEPS
+from .rules import STRONG_ERROR, UNEXPLAINED
 from .timing import GAIN_PRIOR, TIMING
 
 GAIN_LOUD = 2.0   # a monitor gain this many prior SDs off its condition's mean is named in the conclusion
@@ -282,7 +283,6 @@ def calibration_phrase(D) -> str | None:
     """What the held-out monitors' common gain makes of the held-out error (diagnose.
     _calibration): whether a calibration within its prior (2 SDs) brings it within
     UNEXPLAINED noises where the same refit without it does not."""
-    from .rules import UNEXPLAINED
     c = getattr(D, "calibration", None)
     if not c:
         return None
@@ -340,6 +340,8 @@ def tried(D) -> dict:
                        "train_rmse": ev["train_rmse"], "delta_bic": ev["delta_bic"]}
                 if ev.get("stopped"):
                     row["stopped"] = ev["stopped"]
+                if ev.get("late"):
+                    row["late"] = True
                 old = out.get(key)
                 better = old is None or not old["fitted"] or (
                     (row["heldout_rmse"] if row["heldout_rmse"] is not None else row["train_rmse"])
@@ -432,7 +434,6 @@ def training_only(rows: dict, sigma: float, heldout: float | None) -> list:
     out: 1.77 um in training (1.4 noises), 8.38 um held out against the baseline's 4.79 (each
     recording probes one field there, so nothing pins the knee). [{candidate,
     train_rmse, heldout_rmse}], best held-out first."""
-    from .rules import UNEXPLAINED
     if heldout is None:
         return []
     out = [{"candidate": k, "train_rmse": r["train_rmse"], "heldout_rmse": r["heldout_rmse"]}
@@ -736,6 +737,8 @@ def to_markdown(D, report: dict, plots: dict) -> str:
             pars = ", ".join(f"{k} = {p['value']:.4g} +- {p['stderr']:.2g}" for k, p in ev["parameters"].items())
             if ev.get("stopped"):
                 pars = f"{pars} ({ev['stopped']})"
+            if ev.get("late"):
+                name = f"{name} (fitted late: the shortlist's fits left the mismatch at {STRONG_ERROR:g}+ noises)"
             red = ev["heldout_reduction"]
             L.append(f"| {name} | {pred} | {ev['delta_bic']:+.1f} | {um(ev['heldout_rmse'])} | "
                      f"{'-' if red is None else f'{red * 100:+.1f} %'} | {pars} |")

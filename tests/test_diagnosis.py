@@ -226,6 +226,13 @@ def test_the_strong_screens_the_share_left_out_are_fitted_when_the_shortlist_exp
     # nothing weak: a screen under BIC_MIN is not among them
     screens["inertia"] = sc(1721, -5.0, 1.001)
     assert "inertia" not in _cut_strong(screens, listed)
+    # report.json's `unexplained.tried` says which fits came late
+    from diagnosis.report import tried
+    rounds = [{"polarization_branch": {"fitted": True, "late": True, "heldout_rmse": 2.75e-6, "train_rmse": 4.4e-6,
+                                       "delta_bic": -31777.0},
+               "nominal:t_lz": {"fitted": True, "heldout_rmse": 6.64e-6, "train_rmse": 6.63e-6, "delta_bic": -20258.0}}]
+    rows = tried(NS(rounds=rounds))
+    assert rows["polarization_branch"]["late"] and "late" not in rows["nominal:t_lz"]
 
 
 def test_a_training_error_far_above_the_noise_is_unexplained():
