@@ -706,14 +706,9 @@ def heldout_common_gain(dataset, fr: FitResult, executor=None, max_nfev=40) -> d
     sigma_rep = fr.lsq["sigma_rep"] if fr.lsq else SIGMA_REP
     runner = Runner(executor)
     d0 = [math.log(fr.rho_factors.get(r.name, 1.0)) for r in held]
-    def rmse(xs):
-        sq, n = 0.0, 0
-        for r, xm in zip(held, xs):
-            if isinstance(xm, str):
-                raise FitError(f"{r.name}: the fitted model does not run ({xm})")
-            e = r.stroke - align(r.stroke, xm, fr.sigma)[0]
-            sq, n = sq + float(e @ e), n + e.size
-        return math.sqrt(sq / n)
+
+    def rmse(xs):     # over every sample, as the held-out evaluation's (_aligned: the held-out ones as its first)
+        return _aligned(held, xs, [], [], fr.sigma, "the fitted model does not run")[3]
 
     with threadpool_limits(1):
         out = [_solve(held, fr.params, [], [], runner, fr.sigma, sigma_rep, decimate, max_nfev, None, d0, fr.timing,

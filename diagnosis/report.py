@@ -201,8 +201,9 @@ def conclusion(D) -> str:
                      f"{rmse / D.final.sigma:.1f}x the sensor noise{also}")
         if phys:
             parts.append("missing physics found, explaining part of it: " + ", ".join(phys))
-        if calibration_phrase(D):
-            parts.append(calibration_phrase(D))
+        calibration = calibration_phrase(D)
+        if calibration:
+            parts.append(calibration)
     elif phys:
         parts.append("missing physics: " + ", ".join(phys))
     elif any(e.kind == "physics" for e in D.unverified):
@@ -290,7 +291,7 @@ def calibration_phrase(D) -> str | None:
     gains = ", ".join(f"{x['gain']:+.2%} at {x['voltage'] / 1e3:.3g} kV, {x['force']:.3g} N (prior SD "
                       f"{x['prior_sd']:.2%})" for x in conds)
     sigma = D.final.sigma
-    ratio, ratio0 = c["rmse"] / sigma, c.get("rmse_without", D.final.heldout_rmse) / sigma
+    ratio, ratio0 = c["rmse"] / sigma, c["rmse_without"] / sigma
     within = all(abs(x["gain"]) <= 2 * x["prior_sd"] for x in conds)
     which = "condition's" if len(conds) == 1 else "conditions'"
     head = (f"refitted with the held-out {which} voltage monitors' common gain free ({gains}), the held-out RMSE is "

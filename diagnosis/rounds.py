@@ -10,7 +10,7 @@ from .resolution import _raise_kept, _retry_finer
 from .rules import (
     BIC_MIN, CANDIDATE_NFEV, HELDOUT_MIN, LATE_TOP, MAX_ROUNDS, RAISE_MAX, RES_NFEV, SCREEN_HELDOUT, SCREEN_REL,
     SCREEN_SKIP, SCREEN_TOP, SHAPE_BIC, SHAPE_NFEV, START_NFEV, STRONG_ERROR, TIE_SHARE, _accept, _at_noise,
-    _beyond_reach, _evidence, fine_N, _name, _near_noise, _spec, _um, _unexplained, _worst_error,
+    _beyond_reach, _evidence, fine_N, _name, _near_noise, _spec, _strong, _um, _unexplained,
 )
 from .screen import Screen, predicted_delta_bic, probes
 
@@ -94,7 +94,7 @@ def _select(dataset, base, ctx, f0, pool, raised, fine, rounds, refits, holdout,
                 ev[e.key] = {"screen": sc, "fitted": False}
             best_fall = 0.0      # the best BIC fall so far this round of an accepted candidate that
             #                      leaves the held-out error near the noise (nothing a rival could do much better)
-            strong = _worst_error(current) >= STRONG_ERROR * current.sigma
+            strong = _strong(current)
             weak = set(shortlist(screens)) if strong else None     # shortlisted on their own screens
             for key, late in _queue(shortlist(screens, strong), screens, fits, current, strong):
                 e, p = prepared[key]
@@ -175,7 +175,7 @@ def _queue(listed, screens, fits, current, strong):
     against 2.5 um noise, "unexplained"), and on top of that the branch's screen fell to
     nothing. Fitted, three evaluations from its slow start reached 3.2 um, six 2.75 um."""
     yield from ((k, False) for k in listed)
-    if strong and not any(_accept(f, current) and _worst_error(f) < STRONG_ERROR * f.sigma for f in fits.values()):
+    if strong and not any(_accept(f, current) and not _strong(f) for f in fits.values()):
         yield from ((k, True) for k in _cut_strong(screens, listed))
 
 

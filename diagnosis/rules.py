@@ -83,6 +83,14 @@ def _worst_error(f) -> float:
     return max(_error(f), f.train_rmse)
 
 
+def _strong(f) -> bool:
+    """Whether fit f leaves a large mismatch: its worst error (_worst_error) at
+    STRONG_ERROR sensor noises or more. On the current model, a round's strong screens are
+    then fitted (shortlist); on a round's fits, none explaining it below that sends the
+    strong screens the shortlist left out to a fit too (rounds._queue)."""
+    return _worst_error(f) >= STRONG_ERROR * f.sigma
+
+
 def _near_noise(f) -> bool:
     """Whether a fit leaves the held-out error (else the training error) within
     SKIP_FLOOR of the sensor noise: only then may it spare its rivals' fits (SCREEN_SKIP).

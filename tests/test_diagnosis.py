@@ -240,7 +240,7 @@ def test_a_training_error_far_above_the_noise_is_unexplained():
     misses the trained ones (a stiffness of 44 N/m under loads of 2, 6 and 7 N, the 6 N
     held out: 3.05 um held out, 27 um in training, 2.64 um noise): not "no missing
     physics found" but an unexplained mismatch in training, and its strong screens are
-    fitted (diagnose._worst_error). Within the noise both ways: explained."""
+    fitted (rules._worst_error). Within the noise both ways: explained."""
     from types import SimpleNamespace as NS
     from diagnosis.report import conclusion, unexplained
     sigma = 2.64e-6
