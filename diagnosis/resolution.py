@@ -496,8 +496,10 @@ def _last_entry_check(dataset, fb, ctx, kept, current, before, kf, holdout, exec
     last entry is refitted: each refit at the finer N costs as much as the check itself.
     The model without it at the finer N is `before`'s refit there when _raise_kept made
     one (`refits`: the same model, warm from its own fit). kf: the kept model at the finer
-    N (_KeptFine). Returns (kept, the kept model at the finer N, [{entry, gain, gain_fine,
-    rmse_without, dropped}] or [])."""
+    N (_KeptFine). The check assumes the finer N nearer the data: when the kept model
+    refitted there fits worse than at N, the entry stands (record `premise`). Returns
+    (kept, the kept model at the finer N, [{entry, gain, gain_fine, rmse_without, dropped}]
+    or [])."""
     if not _checks_last_entry(kept, before):
         return kept, kf, []
     e = kept[-1]
@@ -509,6 +511,15 @@ def _last_entry_check(dataset, fb, ctx, kept, current, before, kf, holdout, exec
     holds, fk = _holds(kf, fwf, gain)
     out = [{"entry": e.key, "gain": gain, "gain_fine": 1.0 - _error(fk) / _error(fwf), "rmse_without": _error(fwf),
             "dropped": not holds, "kept_fine": kf.how()}]
+    if not holds and _error(fk) >= RES_PREMISE * _error(current):
+        # the kept model itself fits worse at the finer N than at N: the finer grid is not
+        # nearer the data (data made on the model's own grid), so it cannot judge the entry.
+        # The ideal rig's series resistance + branch: kept 1.71 um at N = 21, 8.68 um at 41
+        # (the truth's own N = 21 discretization), where the rest left 8.68 um too
+        out[0].update(dropped=False, premise="the kept model fits worse at the finer N: it cannot judge the entry")
+        say(f"resolution check: {e.key} stands (the kept model fits worse at N = {fb.N} than at N = "
+            f"{current.params.N}: the finer grid is not nearer the data)")
+        return kept, kf, out
     if holds:
         holds, fwf = _deeper(dataset, fb, ctx, e, kept, fwf, kf, current.params.N, holdout, executor, say, budget,
                              out[0], gain, _cut(before, current))

@@ -165,8 +165,11 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     kin_eval(layout, geo, y[0], kin)
     nq = M + 1
     po = nbord + nq                   # offset of the polarization states
-    ichi = 1.0 / mat[CHI_P] if pol else 0.0
     _clear_rates(ydot, tri, jbe, nbord, nq, po, pol, rs, jac)
+    if pol:   # u at the material points, read by the branch's reconstruction and rates
+        for i in range(nq):
+            ydot[po + i] = _u_node(layout, geo, mat, kin, i * mat[DS])[0]
+    SM = 0.0          # the reconstruction's motion term in the device current (R_s)
     xi = work[0:NQMAX]
     wt = work[NQMAX:2 * NQMAX]
     uu = work[2 * NQMAX:3 * NQMAX]
@@ -187,7 +190,7 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
         a1 = -(t0 * c_lf / mat[U0] + 1.0 / mat[TAU_F])
     for e in range(M):
         if const and (e + 1) * ds <= lz:
-            m1s, SJ = _zipped_element(e, y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, epsV, iu0, a0, a1,
+            m1s, SJ = _zipped_element(e, y, ydot, tri, jbe, nbord, nq, rs, jac, ds, t0, epsV, iu0, a0, a1,
                                       itau_l, m1s, SJ)
             continue
         nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
@@ -195,14 +198,19 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
             T, m1s, SJ, SAD = _element_fast(e, nn, xi, wt, uu, dd, y, ydot, jbe, nbord, nq, rs, t0, epsV, c_lf, itau_f,
                                             itau_l, T, m1s, SJ, SAD)
         else:
-            T, m1s, SJ, SAD = _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe, nbord, nq,
-                                       po, pol, rs, jac, t0, ichi, itau_l, itau_f, T, m1s, SJ, SAD)
-    X = _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, mat[CHI_P], 1.0 / mat[TAU_P], SJ)
+            dda = 0.0
+            ddb = 0.0
+            if pol and rs:
+                dda = _u_node(layout, geo, mat, kin, e * ds)[1]
+                ddb = _u_node(layout, geo, mat, kin, (e + 1) * ds)[1]
+            T, m1s, SJ, SAD, SM = _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe, nbord,
+                                           nq, po, pol, rs, jac, t0, T, m1s, SJ, SAD, (dda, ddb), SM)
+    X = _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, mat[CHI_P], 1.0 / mat[TAU_P], SJ, epsV)
     Fe = mat[W] / (2.0 * mat[EPS_L]) * kin[1] * T
     mech_rhs(cfg, mat, F, y, Fe, ydot)
     if rs:
         kap = kin[1] * SAD / (mat[EPS_L] * m1s)     # d(V_d')/d(x'): the moving gap's current
-        X -= kin[1] * stroke_velocity(cfg, mat, y, ydot) * SAD
+        X -= kin[1] * stroke_velocity(cfg, mat, y, ydot) * (SAD - SM)
         ydot[nlast] = ((V - Vd) / (mat[W] * mat[R_S]) - X) / (mat[EPS_L] * m1s)
         jbe[3 * nq] = kap
     return Fe
@@ -213,26 +221,28 @@ def _clear_rates(ydot, tri, jbe, nbord, nq, po, pol, rs, jac):
     """Zero the charge (and branch) rates and the Jacobian pieces rhs_p1 accumulates."""
     for i in range(nq):
         ydot[nbord + i] = 0.0
-        if pol:
-            ydot[po + i] = 0.0        # first accumulates int phi_i sigma_l
         if jac:
             tri[i, 0] = 0.0
             tri[i, 1] = 0.0
             tri[i, 2] = 0.0
             jbe[i] = 0.0
             if pol:
-                tri[i, 3] = 0.0
-                tri[i, 4] = 0.0
-                tri[i, 5] = 0.0
+                for c in range(3, 6):
+                    tri[i, c] = 0.0
+                for c in range(9, 12):
+                    tri[i, c] = 0.0
                 jbe[nq + i] = 0.0
         if rs:
             jbe[2 * nq + i] = 0.0
+            if pol:
+                jbe[3 * nq + 1 + i] = 0.0
 
 
 @njit(cache=True, _nrt=False, inline='always')
-def _zipped_element(e, y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, epsV, iu0, a0, a1, itau_l, m1s, SJ):
+def _zipped_element(e, y, ydot, tri, jbe, nbord, nq, rs, jac, ds, t0, epsV, iu0, a0, a1, itau_l, m1s, SJ):
     """A fully zipped element, constant law: g = a0 + a1 q(s) exactly (u = u0), in
-    closed form. Returns the running int 1/u and int J_l."""
+    closed form (the branch's reconstruction is linear there). Returns the running
+    int 1/u and int J_l."""
     qa = y[nbord + e]
     qb = y[nbord + e + 1]
     ydot[nbord + e] += ds * (0.5 * a0 + a1 * (qa / 3.0 + qb / 6.0))
@@ -247,14 +257,6 @@ def _zipped_element(e, y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, e
         jbe[2 * nq + e] += 0.5 * ds * iu0
         jbe[2 * nq + e + 1] += 0.5 * ds * iu0
         SJ += itau_l * ds * iu0 * (epsV - 0.5 * t0 * (qa + qb))
-    if pol:   # sigma_l = (eps_l V - T0 q')/u0, linear in s
-        ydot[po + e] += ds * iu0 * (0.5 * epsV - t0 * (qa / 3.0 + qb / 6.0))
-        ydot[po + e + 1] += ds * iu0 * (0.5 * epsV - t0 * (qa / 6.0 + qb / 3.0))
-        if jac:
-            tri[e, 4] -= t0 * iu0 * ds / 3.0
-            tri[e, 5] -= t0 * iu0 * ds / 6.0
-            tri[e + 1, 3] -= t0 * iu0 * ds / 6.0
-            tri[e + 1, 4] -= t0 * iu0 * ds / 3.0
     return m1s, SJ
 
 
@@ -290,21 +292,56 @@ def _element_fast(e, nn, xi, wt, uu, dd, y, ydot, jbe, nbord, nq, rs, t0, epsV, 
 
 
 @njit(cache=True, _nrt=False, inline='always')
+def _u_node(layout, geo, mat, kin, s):
+    """u = t_l + T0 at material point s and its derivative in l_z at fixed s."""
+    lz = kin[0]
+    if s <= lz or lz >= geo[2]:
+        return mat[U0], 0.0
+    gap, dgap = profile(layout, geo, kin, s - lz)
+    return mat[U0] + gap, dgap
+
+
+@njit(cache=True, _nrt=False, inline='always')
 def _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, t0,
-             ichi, itau_l, itau_f, T, m1s, SJ, SAD):
-    """An element in general (any law; the Jacobian; the polarization branch, whose
-    energy t_l P^2/(2 chi eps_l) adds to the force) at its quadrature nodes. Returns the
-    running force integral T and the series resistance's integrals."""
+             T, m1s, SJ, SAD, ddab, SM):
+    """An element in general (any law; the Jacobian; the polarization branch) at its
+    quadrature nodes. Returns the running force integral T, the series resistance's
+    integrals and SM, the branch reconstruction's motion term in the device current.
+
+    The branch (rhs_p1) is rebuilt between its material points as
+    P(s) = sum_j phi_j P_j (u_j + chi T0)/(u(s) + chi T0): P (u + chi T0) is linear
+    in s. Where P follows the field, P = chi (eps_l V - T0 q)/(u + chi T0) with q the
+    free charge: the rebuilt profile is then exact however sharply u rises ahead of the
+    front (a P linear between the points was not: its error converged slowly in N).
+    The electrostatics see q'(s) = sum_j phi_j (q'_j - P_j) + P(s). The branch's
+    energy t_l P^2/(2 chi eps_l) adds to the force. ydot[po + j] holds u_j here, ddab
+    the nodes' du/dl_z (with R_s). Few arguments: a call of more than 30 compiles to
+    one with *args, which numba cannot inline."""
+    itau_f = 1.0 / mat[TAU_F]
+    itau_l = 1.0 / (lawp[0] * mat[EPS_L]) if const else 0.0
+    ichi = 1.0 / mat[CHI_P] if pol else 0.0
+    cT = mat[CHI_P] * t0 if pol else 0.0
+    dda, ddb = ddab
     qa = y[nbord + e]
     qb = y[nbord + e + 1]
     b0 = 0.0
     b1 = 0.0
     Pa = y[po + e] if pol else 0.0
     Pb = y[po + e + 1] if pol else 0.0
+    ua = ydot[po + e] if pol else 0.0
+    ub = ydot[po + e + 1] if pol else 0.0
     for k in range(nn):
         p1 = xi[k]
         p0 = 1.0 - p1
         qs = qa * p0 + qb * p1
+        if pol:
+            iw = 1.0 / (uu[k] + cT)
+            rA = (ua + cT) * iw
+            rB = (ub + cT) * iw
+            PA = Pa * p0
+            PB = Pb * p1
+            Ps = PA * rA + PB * rB
+            qs += PA * (rA - 1.0) + PB * (rB - 1.0)
         A, sl, Jl, g, dg = _g(law, lawp, const, mat, Vd, qs, uu[k], itau_l, itau_f)
         b0 += wt[k] * p0 * g
         b1 += wt[k] * p1 * g
@@ -315,16 +352,19 @@ def _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe
             jbe[2 * nq + e + 1] += wu * p1
             SJ += wt[k] * Jl
             SAD += wu * dd[k] * sl
+            if pol:
+                # the device current's share of the rebuilt P beyond the linear one:
+                # dP/dt (1 - T0/u) per unit length, its rates (K_j) and its motion (SM)
+                c1 = wt[k] * (1.0 - t0 / uu[k])
+                jbe[3 * nq + 1 + e] += c1 * p0 * (rA - 1.0)
+                jbe[3 * nq + 2 + e] += c1 * p1 * (rB - 1.0)
+                SM += c1 * iw * (PA * (dda - dd[k] * rA) + PB * (ddb - dd[k] * rB))
         if dd[k] != 0.0:
             wdu = wt[k] * dd[k] * (sl / A if A != 0.0 else 1.0 / uu[k]) ** 2   # w dt_l/dp / u^2
             T += wdu * A * A
         else:
             wdu = 0.0
         if pol:
-            ws = wt[k] * sl
-            ydot[po + e] += ws * p0
-            ydot[po + e + 1] += ws * p1
-            Ps = Pa * p0 + Pb * p1
             # the branch's energy t_l P^2/(2 chi eps_l): in units of the field term
             # (A^2 (dt_l/dp)/u^2 carries 1/(2 eps_l)), + (dt_l/dp) P^2/chi
             T += wt[k] * dd[k] * Ps * Ps * ichi
@@ -338,24 +378,27 @@ def _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe
             jbe[e] += dT * p0
             jbe[e + 1] += dT * p1
             if pol:
-                wsd = -wt[k] * t0 / uu[k]
-                tri[e, 4] += wsd * p0 * p0
-                tri[e, 5] += wsd * p0 * p1
-                tri[e + 1, 3] += wsd * p1 * p0
-                tri[e + 1, 4] += wsd * p1 * p1
+                # d(dq'/dt)/dP through the seen charge (tri[:, 9:12])
+                ga = wdg * p0 * (rA - 1.0)
+                gb = wdg * p1 * (rB - 1.0)
+                tri[e, 10] += p0 * ga
+                tri[e, 11] += p0 * gb
+                tri[e + 1, 9] += p1 * ga
+                tri[e + 1, 10] += p1 * gb
                 dTP = wt[k] * dd[k] * 2.0 * Ps * ichi
-                jbe[nq + e] += dTP * p0
-                jbe[nq + e + 1] += dTP * p1
+                jbe[nq + e] += dT * p0 * (rA - 1.0) + dTP * p0 * rA
+                jbe[nq + e + 1] += dT * p1 * (rB - 1.0) + dTP * p1 * rB
     ydot[nbord + e] += b0
     ydot[nbord + e + 1] += b1
-    return T, m1s, SJ, SAD
+    return T, m1s, SJ, SAD, SM
 
 
 @njit(cache=True, _nrt=False, inline='always')
-def _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, chi, itp, SJ):
-    """Divide the projections by the lumped mass; the branch's rates dP/dt (added to
-    dq'/dt). Returns X, the device current without its dV_d/dt and gap-motion terms
-    (series resistance; SJ = int J_l)."""
+def _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, chi, itp, SJ, epsV):
+    """Divide the projections by the lumped mass; the branch's rates at its material
+    points, dP_j/dt = (chi sigma_l(s_j) - P_j)/tau_p (added to dq'/dt; ydot[po + j]
+    holds u_j on entry). Returns X, the device current without its dV_d/dt and
+    gap-motion terms (series resistance; SJ = int J_l)."""
     X = SJ
     for i in range(nq):
         mi = ds if 0 < i < nq - 1 else 0.5 * ds      # lumped mass
@@ -365,15 +408,17 @@ def _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, chi, itp, SJ
             tri[i, 1] /= mi
             tri[i, 2] /= mi
         if pol:
-            Pd = (chi * ydot[po + i] / mi - y[po + i]) * itp
+            iu = 1.0 / ydot[po + i]
+            Pd = (chi * (epsV - t0 * y[nbord + i]) * iu - y[po + i]) * itp
             ydot[po + i] = Pd
             ydot[nbord + i] += Pd
             if rs:
-                X += Pd * mi
+                X += Pd * (mi + jbe[3 * nq + 1 + i])
             if jac:
-                for c in range(3):
-                    tri[i, 3 + c] *= chi * itp / mi
-                    tri[i, c] += tri[i, 3 + c]
+                for c in range(9, 12):
+                    tri[i, c] /= mi
+                tri[i, 4] = -chi * t0 * iu * itp
+                tri[i, 1] += tri[i, 4]
         if rs:
             X -= t0 * ydot[nbord + i] * jbe[2 * nq + i]
     return X
@@ -454,6 +499,17 @@ def _thomas(cp, dinv, tri, tc, gh, r, roff, out, ooff, nq):
 
 
 @njit(cache=True, _nrt=False, inline='always')
+def _tri_dot(tri, tc, v, voff, i, nq):
+    """Row i of the tridiagonal tri[:, tc:tc+3] times v[voff:voff + nq]."""
+    acc = tri[i, tc + 1] * v[voff + i]
+    if i > 0:
+        acc += tri[i, tc] * v[voff + i - 1]
+    if i < nq - 1:
+        acc += tri[i, tc + 2] * v[voff + i + 1]
+    return acc
+
+
+@njit(cache=True, _nrt=False, inline='always')
 def _beta(mat, gh):
     """Elimination of the polarization states: W_PP = (1 + gh/tau_p) I, beta its inverse."""
     return 1.0 / (1.0 + gh / mat[TAU_P])
@@ -475,8 +531,9 @@ def _pol_back(tri, gh, beta, rP, roff, zq, zoff, out, ooff, nq):
 def factor_p1(cfg, mat, gh, tri, Jeb, Jbe, Jbb, fb, cp, dinv, zeta, S):
     # S: the border's Schur complement (x, v with mass, V_d with a series resistance)
     """Factor W = I - gh J. With polarization the P unknowns are eliminated first
-    (W_PP is diagonal): the q' system keeps its tridiagonal form with
-    T_eff = T_qq - (1 - beta) T_Pq (stored in tri[:, 6:9])."""
+    (W_PP = (1 + gh/tau_p) I): the q' system keeps its tridiagonal form with
+    T_eff = T_qq - (1 - beta) T_Pq + gh beta G_P T_Pq (stored in tri[:, 6:9]; T_Pq,
+    tri[:, 3:6], is diagonal, G_P = d(dq'/dt)/dP through the seen charge, tri[:, 9:12])."""
     nbord, M = cfg[C_NBORD], cfg[C_M]
     nq = M + 1
     pol = cfg[C_POL] == 1
@@ -485,9 +542,13 @@ def factor_p1(cfg, mat, gh, tri, Jeb, Jbe, Jbb, fb, cp, dinv, zeta, S):
     if pol:
         beta = _beta(mat, gh)
         tc = 6
+        gb = gh * beta
         for i in range(nq):
             for c in range(3):
                 tri[i, 6 + c] = tri[i, c] - (1.0 - beta) * tri[i, 3 + c]
+                j = i - 1 + c
+                if 0 <= j < nq:
+                    tri[i, 6 + c] += gb * tri[i, 9 + c] * tri[j, 4]
     for i in range(nq):
         a = -gh * tri[i, tc]
         b = 1.0 - gh * tri[i, tc + 1]
@@ -499,7 +560,7 @@ def factor_p1(cfg, mat, gh, tri, Jeb, Jbe, Jbb, fb, cp, dinv, zeta, S):
     for i in range(nq):
         zeta[i, 0] = -gh * Jeb[i, 0]
         if pol:
-            zeta[i, 0] -= (1.0 - beta) * (-gh * Jeb[i, 1])
+            zeta[i, 0] -= (1.0 - beta) * (-gh * Jeb[i, 1]) + gh * beta * gh * _tri_dot(tri, 9, Jeb[:, 1], 0, i, nq)
             zeta[i, 1] = -gh * Jeb[i, 1]
     z0 = zeta[:, 0]
     _thomas(cp, dinv, tri, tc, gh, z0, 0, z0, 0, nq)     # in place: each entry is read before written
@@ -542,7 +603,7 @@ def solve_p1(cfg, mat, gh, tri, cp, dinv, zeta, Jbe, Jbb, S, fb, r, out):
     if pol:
         beta = _beta(mat, gh)
         for i in range(nq):
-            out[nbord + i] = r[nbord + i] - (1.0 - beta) * r[po + i]
+            out[nbord + i] = r[nbord + i] - (1.0 - beta) * r[po + i] + gh * beta * _tri_dot(tri, 9, r, po, i, nq)
         _thomas(cp, dinv, tri, 6, gh, out, nbord, out, nbord, nq)
         _pol_back(tri, gh, beta, r, po, out, nbord, out, po, nq)
     else:
@@ -617,6 +678,9 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
     pol = cfg[C_POL] == 1
     po = nbord + M + 1
     ichi = 1.0 / mat[CHI_P] if pol else 0.0
+    cT = mat[CHI_P] * t0 if pol else 0.0
+    vD = v * D
+    ua = ub = dda = ddb = 0.0
     for e in range(M):
         qa, qb = y[nbord + e], y[nbord + e + 1]
         qda, qdb = ydot[nbord + e], ydot[nbord + e + 1]
@@ -625,13 +689,29 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
         Pb = y[po + e + 1] if pol else 0.0
         Pda = ydot[po + e] if pol else 0.0
         Pdb = ydot[po + e + 1] if pol else 0.0
+        if pol:
+            ua, dda = _u_node(layout, geo, mat, kin, e * ds)
+            ub, ddb = _u_node(layout, geo, mat, kin, (e + 1) * ds)
         nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
         for k in range(nn):
             p1 = xi[k]
             qs = qa + dq * p1
             qd = qda + dqd * p1
-            Ps = Pa + (Pb - Pa) * p1
-            Pd = Pda + (Pdb - Pda) * p1
+            Ps = 0.0
+            Pd = 0.0
+            if pol:
+                # the rebuilt P (see _element) and its rate at fixed s, with the
+                # weights' own motion as the front moves
+                p0 = 1.0 - p1
+                iw = 1.0 / (uu[k] + cT)
+                rA = (ua + cT) * iw
+                rB = (ub + cT) * iw
+                rdA = vD * (dda - dd[k] * rA) * iw
+                rdB = vD * (ddb - dd[k] * rB) * iw
+                Ps = Pa * p0 * rA + Pb * p1 * rB
+                Pd = Pda * p0 * rA + Pdb * p1 * rB + Pa * p0 * rdA + Pb * p1 * rdB
+                qs += Pa * p0 * (rA - 1.0) + Pb * p1 * (rB - 1.0)
+                qd += Pda * p0 * (rA - 1.0) + Pdb * p1 * (rB - 1.0) + Pa * p0 * rdA + Pb * p1 * rdB
             u = uu[k]
             iu = 1.0 / u
             A = epsV - t0 * qs
