@@ -30,7 +30,7 @@ from .equations import (B, C_LAYOUT, C_M, C_NBORD, C_POL, C_RS, CHI_P, DS, EPS_L
                         X_E, XSC,
                         j_and_slope, j_of_E, mech_jacobian,
                         mech_rhs, stroke_velocity, write_outputs)
-from .kinematics import front_slope, kin_eval, profile
+from .kinematics import V_SHAPED, front_slope, kin_eval, profile
 
 # Gauss-Legendre rules of 2, 3, 4, 6 and 8 points, padded into one table
 GN = np.array([2, 3, 4, 6, 8])
@@ -166,9 +166,27 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     nq = M + 1
     po = nbord + nq                   # offset of the polarization states
     _clear_rates(ydot, tri, jbe, nbord, nq, po, pol, rs, jac)
-    if pol:   # u at the material points, read by the branch's reconstruction and rates
+    if pol:
+        # the branch's weights w_j at its points (read by its reconstruction and rates): u
+        # averaged over each point's hat, smooth in l_z as the front crosses the point (u
+        # there is not: weights with a kink in time cost every crossing ~30 rejected steps)
+        lzk = kin[0]
+        for e in range(M):
+            if (e + 1) * ds <= lzk or lzk >= geo[2]:
+                Ia = Ib = 0.5 * ds * mat[U0]
+                Ja = Jb = 0.0
+            else:
+                Ia, Ib, Ja, Jb = _u_elem(layout, geo, mat, kin, e * ds, (e + 1) * ds)
+            ydot[po + e] = Ia if e == 0 else ydot[po + e] + Ia
+            ydot[po + e + 1] = Ib
+            if rs:
+                jbe[4 * nq + 1 + e] = Ja if e == 0 else jbe[4 * nq + 1 + e] + Ja
+                jbe[4 * nq + 2 + e] = Jb
         for i in range(nq):
-            ydot[po + i] = _u_node(layout, geo, mat, kin, i * mat[DS])[0]
+            mi = ds if 0 < i < nq - 1 else 0.5 * ds
+            ydot[po + i] /= mi
+            if rs:
+                jbe[4 * nq + 1 + i] /= mi
     SM = 0.0          # the reconstruction's motion term in the device current (R_s)
     xi = work[0:NQMAX]
     wt = work[NQMAX:2 * NQMAX]
@@ -189,7 +207,8 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
         a0 = epsV * c_lf / mat[U0]
         a1 = -(t0 * c_lf / mat[U0] + 1.0 / mat[TAU_F])
     for e in range(M):
-        if const and (e + 1) * ds <= lz:
+        # (with the branch both points' weights must be u0: the next element zipped too)
+        if const and (e + 1 + pol) * ds <= lz:
             m1s, SJ = _zipped_element(e, y, ydot, tri, jbe, nbord, nq, rs, jac, ds, t0, epsV, iu0, a0, a1,
                                       itau_l, m1s, SJ)
             continue
@@ -201,8 +220,8 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
             dda = 0.0
             ddb = 0.0
             if pol and rs:
-                dda = _u_node(layout, geo, mat, kin, e * ds)[1]
-                ddb = _u_node(layout, geo, mat, kin, (e + 1) * ds)[1]
+                dda = jbe[4 * nq + 1 + e]
+                ddb = jbe[4 * nq + 2 + e]
             T, m1s, SJ, SAD, SM = _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe, nbord,
                                            nq, po, pol, rs, jac, t0, T, m1s, SJ, SAD, (dda, ddb), SM)
     X = _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, mat[CHI_P], 1.0 / mat[TAU_P], SJ, epsV)
@@ -292,13 +311,36 @@ def _element_fast(e, nn, xi, wt, uu, dd, y, ydot, jbe, nbord, nq, rs, t0, epsV, 
 
 
 @njit(cache=True, _nrt=False, inline='always')
-def _u_node(layout, geo, mat, kin, s):
-    """u = t_l + T0 at material point s and its derivative in l_z at fixed s."""
+def _u_elem(layout, geo, mat, kin, sa, sb):
+    """int phi_a u and int phi_b u over element [sa, sb] (u = t_l + T0), and the same of
+    du/dl_z at fixed s: exact on the zipped part, 3-point Gauss on the rest (u is smooth
+    there; 2 points for the V-shaped gap, linear in s: exact)."""
+    ds = sb - sa
+    u0 = mat[U0]
     lz = kin[0]
-    if s <= lz or lz >= geo[2]:
-        return mat[U0], 0.0
-    gap, dgap = profile(layout, geo, kin, s - lz)
-    return mat[U0] + gap, dgap
+    ze = max(sa, min(sb, lz)) if lz < geo[2] else sb     # the zipped part is [sa, ze]
+    Ia = 0.0
+    Ib = 0.0
+    Ja = 0.0
+    Jb = 0.0
+    if ze > sa:
+        L = ze - sa
+        Ib = u0 * L * L / (2.0 * ds)
+        Ia = u0 * L - Ib
+    if sb > ze:
+        h = 0.5 * (sb - ze)
+        m = 0.5 * (sb + ze)
+        r = 0 if layout == V_SHAPED else 1
+        for i in range(GN[r]):
+            s = m + h * GXS[r, i]
+            gap, dgap = profile(layout, geo, kin, s - lz)
+            w = h * GWS[r, i]
+            pb = (s - sa) / ds
+            Ia += w * (1.0 - pb) * (u0 + gap)
+            Ib += w * pb * (u0 + gap)
+            Ja += w * (1.0 - pb) * dgap
+            Jb += w * pb * dgap
+    return Ia, Ib, Ja, Jb
 
 
 @njit(cache=True, _nrt=False, inline='always')
@@ -309,14 +351,16 @@ def _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe
     integrals and SM, the branch reconstruction's motion term in the device current.
 
     The branch (rhs_p1) is rebuilt between its material points as
-    P(s) = sum_j phi_j P_j (u_j + chi T0)/(u(s) + chi T0): P (u + chi T0) is linear
-    in s. Where P follows the field, P = chi (eps_l V - T0 q)/(u + chi T0) with q the
-    free charge: the rebuilt profile is then exact however sharply u rises ahead of the
-    front (a P linear between the points was not: its error converged slowly in N).
-    The electrostatics see q'(s) = sum_j phi_j (q'_j - P_j) + P(s). The branch's
-    energy t_l P^2/(2 chi eps_l) adds to the force. ydot[po + j] holds u_j here, ddab
-    the nodes' du/dl_z (with R_s). Few arguments: a call of more than 30 compiles to
-    one with *args, which numba cannot inline."""
+    P(s) = sum_j phi_j P_j (w_j + chi T0)/(u(s) + chi T0), w_j the point's weight
+    (rhs_p1: u averaged over its hat), and each P_j relaxes towards
+    chi (eps_l V - T0 q'_j)/w_j (_lumped). Where P follows the field, P_j (w_j + chi T0)
+    = chi (eps_l V - T0 q_j), q the free charge, so the rebuilt profile is
+    chi (eps_l V - T0 q(s))/(u(s) + chi T0): exact however sharply u rises ahead of the
+    front, whatever the weights (a P linear between the points was not: its error
+    converged slowly in N). The electrostatics see q'(s) = sum_j phi_j (q'_j - P_j) + P(s).
+    The branch's energy t_l P^2/(2 chi eps_l) adds to the force. ydot[po + j] holds w_j
+    here, ddab the weights' dw/dl_z (with R_s). Few arguments: a call of more than 30
+    compiles to one with *args, which numba cannot inline."""
     itau_f = 1.0 / mat[TAU_F]
     itau_l = 1.0 / (lawp[0] * mat[EPS_L]) if const else 0.0
     ichi = 1.0 / mat[CHI_P] if pol else 0.0
@@ -396,8 +440,8 @@ def _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe
 @njit(cache=True, _nrt=False, inline='always')
 def _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, chi, itp, SJ, epsV):
     """Divide the projections by the lumped mass; the branch's rates at its material
-    points, dP_j/dt = (chi sigma_l(s_j) - P_j)/tau_p (added to dq'/dt; ydot[po + j]
-    holds u_j on entry). Returns X, the device current without its dV_d/dt and
+    points, dP_j/dt = (chi (eps_l V - T0 q'_j)/w_j - P_j)/tau_p, chi sigma_l there with
+    u replaced by the point's weight w_j (added to dq'/dt; ydot[po + j] holds w_j on entry). Returns X, the device current without its dV_d/dt and
     gap-motion terms (series resistance; SJ = int J_l)."""
     X = SJ
     for i in range(nq):
@@ -681,6 +725,9 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
     cT = mat[CHI_P] * t0 if pol else 0.0
     vD = v * D
     ua = ub = dda = ddb = 0.0
+    # the branch's weights (rhs_p1), rolled along: element e's and e+1's integrals
+    Ia, Ib, Ja, Jb = _u_elem(layout, geo, mat, kin, 0.0, ds) if pol else (0.0, 0.0, 0.0, 0.0)
+    pIb = pJb = 0.0
     for e in range(M):
         qa, qb = y[nbord + e], y[nbord + e + 1]
         qda, qdb = ydot[nbord + e], ydot[nbord + e + 1]
@@ -690,8 +737,15 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
         Pda = ydot[po + e] if pol else 0.0
         Pdb = ydot[po + e + 1] if pol else 0.0
         if pol:
-            ua, dda = _u_node(layout, geo, mat, kin, e * ds)
-            ub, ddb = _u_node(layout, geo, mat, kin, (e + 1) * ds)
+            nIa = nIb = nJa = nJb = 0.0
+            if e + 1 < M:
+                nIa, nIb, nJa, nJb = _u_elem(layout, geo, mat, kin, (e + 1) * ds, (e + 2) * ds)
+            ma = ds if e > 0 else 0.5 * ds
+            mb = ds if e + 1 < M else 0.5 * ds
+            ua, dda = (pIb + Ia) / ma, (pJb + Ja) / ma
+            ub, ddb = (Ib + nIa) / mb, (Jb + nJa) / mb
+            pIb, pJb = Ib, Jb
+            Ia, Ib, Ja, Jb = nIa, nIb, nJa, nJb
         nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
         for k in range(nn):
             p1 = xi[k]
