@@ -382,6 +382,38 @@ def test_the_last_entry_is_checked_when_the_finer_baseline_fits_no_better(monkey
     assert kept == [branch] and final is before and "marginal" not in rec
 
 
+def test_the_last_entry_stands_where_the_kept_model_fits_worse_at_the_finer_N(monkeypatch):
+    """The check at twice the elements assumes the finer model nearer the data. On the
+    ideal rig (data made at the fit's own N = 21) a series resistance + branch kept at
+    1.71 um held out fitted 3.76 um at N = 41, where the resistance alone left 4.41 um: a
+    gain of 41 % at N = 21 and 15 % at 41 - the branch, real, would have been dropped. The
+    kept model itself fitting worse at the finer N, that N cannot judge the entry: it
+    stands (record 'premise'). Where the kept model fits better there, the rule is as
+    before: the entry that only took up resolution error is dropped. Fits stubbed."""
+    dg = _stubbed_diagnose(monkeypatch, _same_base)
+    rs, branch = _entry("series_resistance"), _entry("polarization_branch")
+    res = partial(_stubbed_fit, sigma=1.0e-6)
+    base = preset("vshape-table1").replace(N=21)
+    f0, before, current = res(29.6e-6, 0.0, 21), res(2.88e-6, -70000.0, 21), res(1.71e-6, -72000.0, 21)
+    for kept_fine, without, stands in ((3.76e-6, 4.41e-6, True), (1.50e-6, 1.55e-6, False)):
+        _stub_point(monkeypatch, dg, 1.2 * kept_fine, -60000.0)
+        fits = iter([res(30.7e-6, 0.0, 41), res(without, -65000.0, 41), res(kept_fine, -65500.0, 41),
+                     res(29.0e-6, -1000.0, 41)])
+        patch(monkeypatch, "fit", lambda *a, **k: next(fits))
+        kept, final, rec = dg._resolution_check(None, base, None, [rs, branch], current, f0, None, None,
+                                                lambda s: None, before=before)
+        assert "inconclusive" in rec
+        last = rec["marginal"][0]
+        assert last["entry"] == branch.key and last["gain_fine"] == pytest.approx(1 - kept_fine / without)
+        assert last["gain_fine"] < 0.5 * last["gain"]          # what the check alone would drop
+        if stands:
+            assert not last["dropped"] and "finer N" in last["premise"]
+            assert kept == [rs, branch] and final is current and rec["dropped_marginal"] == []
+        else:
+            assert last["dropped"] and "premise" not in last
+            assert kept == [rs] and rec["dropped_marginal"] == [branch.key]
+
+
 def test_an_entry_kept_before_others_must_hold_on_top_of_them(monkeypatch):
     """Backward elimination (_earlier_entries_check): a spring kept first on a branch's
     dataset (its BIC fall 13685 against the branch's 13218) was still named after the
