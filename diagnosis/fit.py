@@ -68,6 +68,11 @@ DECIMATE = 5
 # um against 1.04 um noise with an exact voltage monitor
 SWITCH_SAMPLES = 6e-3
 OFFSET_PRIOR = 20e-6 # prior SD of a sensor's zero offset (m)
+# a zero at most this many prior SDs from 0: beyond, it is a stroke mismatch, not a zero. A
+# lab recording without a rest stretch fits its zero over the whole run, and a baseline
+# whose rho_l ran to where the actuator does not zip at all had each zero take up the
+# stroke (+770 um), leaving 154 um: from there no screen saw a polarization branch
+ZERO_MAX = 5.0
 TIME_PRIOR = 0.2e-3  # prior SD of a recording's timing between the drive and the sensor (s)
 NUISANCES = 3       # unknowns per recording: its resistivity factor, sensor zero and timing (align)
 # the search's step tolerance (scipy's xtol: relative to the norm of the fitted
@@ -117,7 +122,8 @@ def sensor_offset(stroke, x_model, sigma, prior=OFFSET_PRIOR) -> float:
     mismatch, the very thing the diagnosis must see."""
     rest = x_model <= 0.0
     n = int(np.count_nonzero(rest))
-    return float(np.sum(stroke[rest] - x_model[rest])) / (n + (sigma / prior) ** 2) if n else 0.0
+    off = float(np.sum(stroke[rest] - x_model[rest])) / (n + (sigma / prior) ** 2) if n else 0.0
+    return min(max(off, -ZERO_MAX * prior), ZERO_MAX * prior)
 
 
 def sample_times(t: np.ndarray):
@@ -183,6 +189,10 @@ def align(stroke, run, sigma) -> tuple:
         b1, b2 = float(np.sum(e)), -float(xd @ e)
         det = a11 * a22 - a12 * a12
         off, tau = (b1 * a22 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det
+        cap = ZERO_MAX * OFFSET_PRIOR
+        if abs(off) > cap:          # not a zero: held at the cap, the timing profiled again
+            off = math.copysign(cap, off)
+            tau = (b2 - a12 * off) / a22
         return x - tau * xd + off, off, tau
     off = sensor_offset(stroke, x, sigma)
     e0 = stroke - x - off
