@@ -131,21 +131,26 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     """ydot = f(y); with jac, also the tridiagonal dq'/dq (tri[i] = [sub, diag, sup])
     and the force derivatives jbe[i] = dT/dq_i. Returns F_e. work: scratch, >= 4 NQMAX.
 
-    With the liquid's fast relaxation (cfg[C_POL]; README 'Polarization branch') the
-    states are [q'_i, then P_i]: q' = q + P is the charge the electrostatics see (the
+    With the liquid's fast relaxation (cfg[C_POL]; physics guide 'Polarization branch')
+    the states are [q'_i, then P_i]: q' = q + P is the charge the electrostatics see (the
     bound charge of the polarization P acts at the interfaces like free charge), and
 
-        dP_i/dt = (chi_p <sigma_l>_i - P_i)/tau_p,   dq'_i/dt = <J_l - J_f>_i + dP_i/dt,
+        dP_i/dt = (chi_p (eps_l V - T0 q'_i)/w_i - P_i)/tau_p,
+        dq'_i/dt = <J_l - J_f>_i + dP_i/dt,
 
-    <.>_i the same lumped Galerkin projection. The branch's energy t_l P^2/(2 chi_p eps_l)
-    depends on the gap, so P adds to the force. tri[:, 3:6] then receives d(dP/dt)/dq'
-    and jbe[nq + i] = dT/dP_i.
+    <.>_i the lumped Galerkin projection, w_i the point's weight (u averaged over its
+    hat), and P rebuilt between the points with P (u + chi_p T0) linear (_element). The
+    branch's energy t_l P^2/(2 chi_p eps_l) depends on the gap, so P adds to the force.
+    tri[:, 3:6] then receives d(dP/dt)/dq' (diagonal), tri[:, 9:12] d(dq'/dt)/dP through
+    the seen charge, and jbe[nq + i] = dT/dP_i.
 
     With a series resistance R_s (cfg[C_RS]; README 'Series resistance') the last state
     is the device's voltage V_d, which the elements see in place of the source's V:
     w (eps_l V_d' int 1/u + X) = (V - V_d)/R_s, X the rest of the device current
     (conduction, dq'/dt and dP/dt terms, and the gap's motion). jbe[2 nq:3 nq] receives
-    int phi_i/u, jbe[3 nq] d(V_d')/d(x') (see jacobian_p1). jbe: >= 3 nq + 1.
+    int phi_i/u, jbe[3 nq] d(V_d')/d(x') (see jacobian_p1); with the branch too,
+    jbe[3 nq + 1:4 nq + 1] the rebuilt profile's share of the device current per unit
+    dP_i/dt and jbe[4 nq + 1:5 nq + 1] the weights' dw_i/dl_z. jbe: >= 5 nq + 1.
 
     The element integrals are in _zipped_element (closed form), _element_fast (the
     constant law's hot path) and _element (any law, the Jacobian, the branch); the
