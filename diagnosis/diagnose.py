@@ -77,7 +77,8 @@ class Diagnosis:
     cold: dict | None = None                   # the final model's refit from neutral nuisances (_cold_refit)
     taken: tuple | None = None                 # (first, last + 1): the rounds of the selection taken (None: all)
     reselect: dict | None = None               # the selection run again at the finer N (_reselect_due)
-    calibration: dict | None = None            # the held-out error with the held-out monitors' common gain (_calibration)
+    # the held-out error with the held-out monitors' common gain free (_calibration)
+    calibration: dict | None = None
 
     @property
     def held_out(self) -> bool:

@@ -44,7 +44,7 @@ def make_workspace(n, ne, nb, h0):
     continue exactly like one call; copying it saves the complete solver state.
     The last array is f at the current state."""
     ws = (np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, nb)), np.zeros((3, 4)),
-          np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3 if nb == 1 else 12)), np.zeros(5 * ne + 1),
+          np.zeros((ne, nb, nb)), np.zeros((ne, nb)), np.zeros((ne, 3 if nb == 1 else 12)), np.zeros(4 * ne + 1),
           np.zeros(ne), np.zeros(ne), np.zeros((3, 3)), np.zeros(n))
     ist = np.array([0.0, -1.0, 1.0, h0, -1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0])
     return ws, ist

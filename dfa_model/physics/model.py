@@ -124,7 +124,7 @@ class DFAModel:
         ydot = np.empty(self.n)
         rhs(self.cfg, self.geo, self.mat if mat is None else mat, self.law.law_id, self.law.params,
             float(V), float(F), np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(NWORK),
-            np.zeros((self.M + 1, 12)), np.zeros(5 * (self.M + 1) + 1))
+            np.zeros((self.M + 1, 12)), np.zeros(4 * (self.M + 1) + 1))
         return ydot
 
     def electrostatic_force(self, y, V) -> float:
@@ -132,7 +132,7 @@ class DFAModel:
         ydot = np.empty(self.n)
         Fe = rhs(self.cfg, self.geo, self.mat, self.law.law_id, self.law.params, float(V), 0.0,
                  np.ascontiguousarray(y, dtype=float), ydot, np.zeros(6), np.zeros(NWORK),
-                 np.zeros((self.M + 1, 12)), np.zeros(5 * (self.M + 1) + 1))
+                 np.zeros((self.M + 1, 12)), np.zeros(4 * (self.M + 1) + 1))
         return -Fe
 
     def diagnostics(self, y, V, F=0.0, dVdt=0.0, mat=None):

@@ -138,8 +138,8 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
         dP_i/dt = (chi_p (eps_l V - T0 q'_i)/w_i - P_i)/tau_p,
         dq'_i/dt = <J_l - J_f>_i + dP_i/dt,
 
-    <.>_i the lumped Galerkin projection, w_i the point's weight (u averaged over its
-    hat), and P rebuilt between the points with P (u + chi_p T0) linear (_element). The
+    <.>_i the lumped Galerkin projection, w_i the point's weight (_weights: u averaged
+    over its hat), and P rebuilt between the points with P (u + chi_p T0) linear (_element). The
     branch's energy t_l P^2/(2 chi_p eps_l) depends on the gap, so P adds to the force.
     tri[:, 3:6] then receives d(dP/dt)/dq' (diagonal), tri[:, 9:12] d(dq'/dt)/dP through
     the seen charge, and jbe[nq + i] = dT/dP_i.
@@ -150,7 +150,7 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     (conduction, dq'/dt and dP/dt terms, and the gap's motion). jbe[2 nq:3 nq] receives
     int phi_i/u, jbe[3 nq] d(V_d')/d(x') (see jacobian_p1); with the branch too,
     jbe[3 nq + 1:4 nq + 1] the rebuilt profile's share of the device current per unit
-    dP_i/dt and jbe[4 nq + 1:5 nq + 1] the weights' dw_i/dl_z. jbe: >= 5 nq + 1.
+    dP_i/dt. jbe: >= 4 nq + 1.
 
     The element integrals are in _zipped_element (closed form), _element_fast (the
     constant law's hot path) and _element (any law, the Jacobian, the branch); the
@@ -171,27 +171,6 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
     nq = M + 1
     po = nbord + nq                   # offset of the polarization states
     _clear_rates(ydot, tri, jbe, nbord, nq, po, pol, rs, jac)
-    if pol:
-        # the branch's weights w_j at its points (read by its reconstruction and rates): u
-        # averaged over each point's hat, smooth in l_z as the front crosses the point (u
-        # there is not: weights with a kink in time cost every crossing ~30 rejected steps)
-        lzk = kin[0]
-        for e in range(M):
-            if (e + 1) * ds <= lzk or lzk >= geo[2]:
-                Ia = Ib = 0.5 * ds * mat[U0]
-                Ja = Jb = 0.0
-            else:
-                Ia, Ib, Ja, Jb = _u_elem(layout, geo, mat, kin, e * ds, (e + 1) * ds)
-            ydot[po + e] = Ia if e == 0 else ydot[po + e] + Ia
-            ydot[po + e + 1] = Ib
-            if rs:
-                jbe[4 * nq + 1 + e] = Ja if e == 0 else jbe[4 * nq + 1 + e] + Ja
-                jbe[4 * nq + 2 + e] = Jb
-        for i in range(nq):
-            mi = ds if 0 < i < nq - 1 else 0.5 * ds
-            ydot[po + i] /= mi
-            if rs:
-                jbe[4 * nq + 1 + i] /= mi
     SM = 0.0          # the reconstruction's motion term in the device current (R_s)
     xi = work[0:NQMAX]
     wt = work[NQMAX:2 * NQMAX]
@@ -211,7 +190,14 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
         c_lf = 1.0 / (lawp[0] * mat[EPS_L]) - 1.0 / mat[TAU_F]
         a0 = epsV * c_lf / mat[U0]
         a1 = -(t0 * c_lf / mat[U0] + 1.0 / mat[TAU_F])
+    prev = (0.0, 0.0, 0.0, 0.0)        # the branch's weights, rolled along the elements (_weights)
+    cur = _u_elem(layout, geo, mat, kin, 0.0, ds) if pol else prev
     for e in range(M):
+        dda = 0.0
+        ddb = 0.0
+        if pol:     # ydot[po + j] holds w_j until _lumped (read by _element)
+            ydot[po + e], dda, ydot[po + e + 1], ddb, nxt = _weights(layout, geo, mat, kin, e, M, prev, cur)
+            prev, cur = cur, nxt
         # (with the branch both points' weights must be u0: the next element zipped too)
         if const and (e + 1 + pol) * ds <= lz:
             m1s, SJ = _zipped_element(e, y, ydot, tri, jbe, nbord, nq, rs, jac, ds, t0, epsV, iu0, a0, a1,
@@ -222,11 +208,6 @@ def rhs_p1(cfg, geo, mat, law, lawp, V, F, y, ydot, kin, jac, tri, jbe, work):
             T, m1s, SJ, SAD = _element_fast(e, nn, xi, wt, uu, dd, y, ydot, jbe, nbord, nq, rs, t0, epsV, c_lf, itau_f,
                                             itau_l, T, m1s, SJ, SAD)
         else:
-            dda = 0.0
-            ddb = 0.0
-            if pol and rs:
-                dda = jbe[4 * nq + 1 + e]
-                ddb = jbe[4 * nq + 2 + e]
             T, m1s, SJ, SAD, SM = _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe, nbord,
                                            nq, po, pol, rs, jac, t0, T, m1s, SJ, SAD, (dda, ddb), SM)
     X = _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, mat[CHI_P], 1.0 / mat[TAU_P], SJ, epsV)
@@ -349,6 +330,26 @@ def _u_elem(layout, geo, mat, kin, sa, sb):
 
 
 @njit(cache=True, _nrt=False, inline='always')
+def _mass(i, nq, ds):
+    """The lumped mass of point i, int phi_i."""
+    return ds if 0 < i < nq - 1 else 0.5 * ds
+
+
+@njit(cache=True, _nrt=False, inline='always')
+def _weights(layout, geo, mat, kin, e, M, prev, cur):
+    """The branch's weights at element e's two points and their derivatives in l_z:
+    (w_a, dw_a/dl_z, w_b, dw_b/dl_z, element e + 1's integrals). A weight is u averaged
+    over the point's hat: smooth in l_z as the front crosses the point (u there is not:
+    weights with a kink in time cost every crossing ~30 rejected steps). prev, cur:
+    _u_elem of elements e - 1 (zeros for e = 0) and e; the caller rolls them along."""
+    ds = mat[DS]
+    nxt = _u_elem(layout, geo, mat, kin, (e + 1) * ds, (e + 2) * ds) if e + 1 < M else (0.0, 0.0, 0.0, 0.0)
+    ma = _mass(e, M + 1, ds)
+    mb = _mass(e + 1, M + 1, ds)
+    return (prev[1] + cur[0]) / ma, (prev[3] + cur[2]) / ma, (cur[1] + nxt[0]) / mb, (cur[3] + nxt[2]) / mb, nxt
+
+
+@njit(cache=True, _nrt=False, inline='always')
 def _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, t0,
              T, m1s, SJ, SAD, ddab, SM):
     """An element in general (any law; the Jacobian; the polarization branch) at its
@@ -357,7 +358,7 @@ def _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe
 
     The branch (rhs_p1) is rebuilt between its material points as
     P(s) = sum_j phi_j P_j (w_j + chi T0)/(u(s) + chi T0), w_j the point's weight
-    (rhs_p1: u averaged over its hat), and each P_j relaxes towards
+    (_weights: u averaged over its hat), and each P_j relaxes towards
     chi (eps_l V - T0 q'_j)/w_j (_lumped). Where P follows the field, P_j (w_j + chi T0)
     = chi (eps_l V - T0 q_j), q the free charge, so the rebuilt profile is
     chi (eps_l V - T0 q(s))/(u(s) + chi T0): exact however sharply u rises ahead of the
@@ -446,11 +447,12 @@ def _element(e, nn, xi, wt, uu, dd, law, lawp, const, mat, Vd, y, ydot, tri, jbe
 def _lumped(y, ydot, tri, jbe, nbord, nq, po, pol, rs, jac, ds, t0, chi, itp, SJ, epsV):
     """Divide the projections by the lumped mass; the branch's rates at its material
     points, dP_j/dt = (chi (eps_l V - T0 q'_j)/w_j - P_j)/tau_p, chi sigma_l there with
-    u replaced by the point's weight w_j (added to dq'/dt; ydot[po + j] holds w_j on entry). Returns X, the device current without its dV_d/dt and
-    gap-motion terms (series resistance; SJ = int J_l)."""
+    u replaced by the point's weight w_j (added to dq'/dt; ydot[po + j] holds w_j on
+    entry). Returns X, the device current without its dV_d/dt and gap-motion terms
+    (series resistance; SJ = int J_l)."""
     X = SJ
     for i in range(nq):
-        mi = ds if 0 < i < nq - 1 else 0.5 * ds      # lumped mass
+        mi = _mass(i, nq, ds)
         ydot[nbord + i] /= mi
         if jac:
             tri[i, 0] /= mi
@@ -730,9 +732,8 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
     cT = mat[CHI_P] * t0 if pol else 0.0
     vD = v * D
     ua = ub = dda = ddb = 0.0
-    # the branch's weights (rhs_p1), rolled along: element e's and e+1's integrals
-    Ia, Ib, Ja, Jb = _u_elem(layout, geo, mat, kin, 0.0, ds) if pol else (0.0, 0.0, 0.0, 0.0)
-    pIb = pJb = 0.0
+    prev = (0.0, 0.0, 0.0, 0.0)        # the branch's weights, rolled along as in rhs_p1
+    cur = _u_elem(layout, geo, mat, kin, 0.0, ds) if pol else prev
     for e in range(M):
         qa, qb = y[nbord + e], y[nbord + e + 1]
         qda, qdb = ydot[nbord + e], ydot[nbord + e + 1]
@@ -742,15 +743,8 @@ def diagnostics_p1(cfg, geo, mat, law, lawp, V, dVdt, F, y, ydot, kin, rec, P, w
         Pda = ydot[po + e] if pol else 0.0
         Pdb = ydot[po + e + 1] if pol else 0.0
         if pol:
-            nIa = nIb = nJa = nJb = 0.0
-            if e + 1 < M:
-                nIa, nIb, nJa, nJb = _u_elem(layout, geo, mat, kin, (e + 1) * ds, (e + 2) * ds)
-            ma = ds if e > 0 else 0.5 * ds
-            mb = ds if e + 1 < M else 0.5 * ds
-            ua, dda = (pIb + Ia) / ma, (pJb + Ja) / ma
-            ub, ddb = (Ib + nIa) / mb, (Jb + nJa) / mb
-            pIb, pJb = Ib, Jb
-            Ia, Ib, Ja, Jb = nIa, nIb, nJa, nJb
+            ua, dda, ub, ddb, nxt = _weights(layout, geo, mat, kin, e, M, prev, cur)
+            prev, cur = cur, nxt
         nn = elem_nodes(layout, const, geo, mat, kin, e * ds, (e + 1) * ds, xi, wt, uu, dd)
         for k in range(nn):
             p1 = xi[k]
