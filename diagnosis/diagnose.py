@@ -27,7 +27,9 @@ catalog and the nominal values.
    neutral per-recording nuisances before the verdict (_cold_refit). When the kept set's
    cut shrinks and it leaves UNEXPLAINED noises at both N, the selection is run again at
    the finer N (_reselect_due): the coarse N may have chosen the entry; the lower BIC
-   there decides between the two selections.
+   there decides between the two selections. The kept entries' values must settle in N
+   as well (convergence.value_check): refitted at twice the elements while they move by
+   more than VALUE_TOL, the finest refit then being the final model.
 5. Nothing held out (a single condition, or a holdout of none): the rounds still run, on
    the training data alone (BIC), but what they keep is never applied - no nominal value
    is corrected and no physics named without held-out evidence. The entries are the
@@ -47,6 +49,7 @@ from dataclasses import dataclass, field, replace
 from dfa_model.interrupt import stop_pool
 
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
+from .convergence import value_check
 from .fit import fit, heldout_common_gain, local_executor
 from .levels import voltage_levels
 from .locate import locate
@@ -79,6 +82,7 @@ class Diagnosis:
     reselect: dict | None = None               # the selection run again at the finer N (_reselect_due)
     # the held-out error with the held-out monitors' common gain free (_calibration)
     calibration: dict | None = None
+    values_in_N: dict | None = None            # the kept entries' values over doublings of N (convergence.py)
 
     @property
     def held_out(self) -> bool:
@@ -192,13 +196,16 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         if any(e.kind == "physics" for e in kept):
             kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
                                                          say, fine, before, refits, RAISE_MAX - len(raised))
+        values = None
+        if any(e.kind == "physics" for e in kept):
+            current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
         current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
         calibration = _calibration(dataset, current, executor, say)
         final_windows = locate(dataset, current) if current is not f0 else None
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
                          final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
                          raised=raised, suggested=suggested, cold=cold, taken=taken, reselect=reselect,
-                         calibration=calibration)
+                         calibration=calibration, values_in_N=values)
     except BaseException:
         if own:                  # Ctrl-C or an error: the workers' runs are not waited for
             stop_pool(executor)

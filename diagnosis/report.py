@@ -76,6 +76,7 @@ def to_json(D) -> dict:
         "unverified_suggestions": unverified_suggestions(D),
         "unexplained": unexplained(D),
         "resolution": D.resolution,
+        "values_in_N": getattr(D, "values_in_N", None),
         "resolution_first": D.raised,
         "reselect": getattr(D, "reselect", None),
         "cold_refit": getattr(D, "cold", None),
@@ -249,6 +250,8 @@ def conclusion(D) -> str:
             parts.append(f"the final model is at N = {r['N_fine']} (N = {r['N']} left its own discretization error: "
                          f"{r['kept_rmse'] * 1e6:.3g} um {r['measure']} RMSE against "
                          f"{r['kept_fine_rmse'] * 1e6:.3g} um{_first_check(r)})")
+    if values_phrase(D):
+        parts.append(values_phrase(D))
     # after the resolution's phrases: their errors are the warm refits' the cold one started from
     c = getattr(D, "cold", None)
     if c and c["taken"]:
@@ -369,6 +372,23 @@ def monitor_gain(D) -> dict:
     condition's mean (the drive the actuator saw is the read one over 1 + gain; only the
     differences between a condition's repetitions are a nuisance: diagnosis/timing.py)."""
     return {r: tm["gain"] for r, tm in (D.final.timing or {}).items() if "gain" in tm}
+
+
+def values_phrase(D) -> str | None:
+    """The conclusion's account of the kept entries' values over doublings of N
+    (convergence.value_check), when they moved: None when they settled at the first
+    doubling (or were not followed)."""
+    v = getattr(D, "values_in_N", None)
+    if not v or len(v["steps"]) < 2 or (v["converged"] and len(v["steps"]) == 2):
+        return None
+    Ns = ", ".join(str(st["N"]) for st in v["steps"])
+    vals = "; ".join(f"{k} " + ", ".join(f"{st['values'][k]:.3g}" for st in v["steps"])
+                     for k in list(v["steps"][0]["values"])[:3])
+    if v["converged"]:
+        return (f"the named values moved with the elements and settled ({vals} at N = {Ns}): the final model is at "
+                f"N = {v['N_final']} (values_in_N)")
+    return (f"the named values had not settled in N ({vals} at N = {Ns}; {v['stopped']}): the final model is at "
+            f"N = {v['N_final']}, and a finer N may move them further (values_in_N)")
 
 
 def zeros_fitted(D) -> list:

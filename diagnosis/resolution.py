@@ -199,8 +199,6 @@ def _reselect_due(dataset, base, ctx, kept, current, f0, holdout, executor, refi
         due = holds and _shrinks(_cut(f0, current), ff, kf) and _unexplained(kf.best()) is not None
     except Exception:              # the finer model cannot run: the resolution check says so
         return None, None, False
-    if kf.fitted and _refit_of(refits, current, Nf) is None:
-        refits.append((current, kf.fit()))
     return ff, (kf.fit() if due else None), bool(due)
 
 
@@ -423,6 +421,7 @@ class _KeptFine:
     def __init__(self, dataset=None, pk=None, ctx=None, kept=(), current=None, holdout=None, executor=None,
                  refits=(), of=None):
         self._args = (dataset, pk, ctx, list(kept), current, holdout, executor)
+        self._refits = refits
         self._fit = of if of is not None else (_refit_of(refits, current, pk.N) if pk is not None else None)
         self._point = None
 
@@ -444,6 +443,8 @@ class _KeptFine:
             dataset, pk, ctx, kept, current, holdout, executor = self._args
             self._fit = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor,
                             warm=current, max_nfev=RES_NFEV)
+            if isinstance(self._refits, list):     # later checks (convergence.value_check) reuse it
+                self._refits.append((current, self._fit))
         return self._fit
 
     def best(self):

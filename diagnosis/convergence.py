@@ -1,0 +1,111 @@
+"""The named values converged in N (diagnose.py, after the resolution check).
+
+The resolution check asks whether kept physics is physics: its gain over the baseline
+survives a doubling of the elements. It does not ask whether the entry's *values* are
+those of the continuum: a kept model whose own discretization error the fit can take up
+by moving the entry's parameters fits about as well at N as at 2N, while its values move.
+A polarization branch under 1 Hz polarity inversion (lab_fine rig, the truth at 651
+points: chi_p 0.125, tau_p 0.186 s, rho_l 2e12) fitted at N = 21, 41, 81 and 161 gave chi_p
+0.058, 0.078, 0.096 and 0.113, tau_p 0.155, 0.159, 0.168 and 0.180 s - each value's
+standard error 2e-4, held out 2.36, 2.59, 1.89 and 1.66 um against 1.57 um noise. The
+branch's stroke converges in N (8.2, 5.5, 2.3, 1.1 um RMS against N = 641 under that drive)
+but its error at N = 21 is about half the branch's own effect (16 um), and the fit halves
+chi_p to match. The baseline itself fitted no better at 41 (the plain model's error there
+is 1.1 um): the resolution check was inconclusive and the values stood at N = 21.
+
+Here the kept model is refitted at twice the elements (warm, RES_NFEV evaluations; a refit
+the checks already made is used as it is) and each kept entry's parameters compared: a
+change of more than VALUE_TOL at the last doubling is a value not converged in N, and the
+next doubling follows, up to VALUE_N_MAX times the dataset's nominal N. The finest refit is
+the final model when the values moved and its training error is no worse (VALUE_TRAIN); the
+record says the values at every N tried and whether they settled.
+"""
+from __future__ import annotations
+
+from .fit import fit
+from .resolution import _refit_of
+from .rules import RES_NFEV, _error, _spec, _um, fine_N
+
+VALUE_TOL = 0.10     # a kept entry's parameter moving more than this share at a doubling is not converged
+VALUE_SE = 3.0       # ... and more than this many of its standard errors
+VALUE_TRAIN = 1.02   # the finer refit is the final model when its training RMSE is below this share of the coarser's
+VALUE_N_MAX = 8      # ... and N at most this many times the dataset's nominal N
+
+
+def _entry_values(f, kept, ctx) -> dict:
+    """{key: (value, stderr)} of the kept entries at fit f, in the keys the report gives
+    (a law's model keys, improved.entry_parameters)."""
+    out = {}
+    for e in kept:
+        if e.shows:
+            keys = e.shows(f.params) if callable(e.shows) else e.shows
+            out.update({k: (v["value"], v["stderr"]) for k, v in f.model_values(keys).items()})
+        else:
+            out.update({fp.key: (f.values[fp.key], f.stderr[fp.key]) for fp in e.spec(f.params, ctx)})
+    return out
+
+
+def _moved(a, b) -> tuple:
+    """(the relative change from a to b, whether it counts): more than VALUE_TOL of the
+    value and more than VALUE_SE standard errors (a value the data hardly fix - a
+    resistivity floor the fields never reach - moves freely between refits)."""
+    (va, sa), (vb, sb) = a, b
+    d = abs(vb - va)
+    rel = d / max(abs(va), abs(vb), 1e-300)
+    return rel, bool(rel > VALUE_TOL and d > VALUE_SE * max(sa, sb))
+
+
+def value_check(dataset, ctx, kept, current, refits, holdout, executor, say) -> tuple:
+    """The kept entries' values followed over doublings of N (module docstring). Returns
+    (the final model, the record or None when nothing physical was kept): {entries, steps:
+    [{N, values, stderr, train_rmse, heldout_rmse}], changes ({key: relative change at the last
+    doubling}), converged (bool), N_final, stopped (why the doublings ended, when the
+    values had not settled)}."""
+    physics = [e for e in kept if e.kind == "physics"]
+    if not physics:
+        return current, None
+    n_max = VALUE_N_MAX * (dataset.params.N - 1) + 1
+
+    def step(f):
+        v = _entry_values(f, kept, ctx)
+        return {"N": f.params.N, "values": {k: x[0] for k, x in v.items()}, "stderr": {k: x[1] for k, x in v.items()},
+                "train_rmse": f.train_rmse, "heldout_rmse": f.heldout_rmse}
+
+    def pair(st, k):
+        return st["values"][k], st["stderr"][k]
+
+    steps, f, final = [step(current)], current, current
+    changes, converged, stopped = {}, False, None
+    while True:
+        Nf = fine_N(f.params.N)
+        if Nf > n_max:
+            stopped = f"N = {Nf} is past {VALUE_N_MAX}x the nominal N"
+            break
+        g = _refit_of(refits, f, Nf)
+        if g is None:
+            say(f"values in N: {' + '.join(e.key for e in kept)} refitted at N = {Nf}")
+            pk = f.params.replace(N=Nf)
+            try:
+                g = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=f,
+                        max_nfev=RES_NFEV)
+            except Exception as exc:     # the finer model cannot run: the values stand as they are
+                stopped = f"the model at N = {Nf} cannot run ({type(exc).__name__})"
+                break
+            refits.append((f, g))
+        steps.append(step(g))
+        moved = {k: _moved(pair(steps[-2], k), pair(steps[-1], k)) for k in steps[-1]["values"]}
+        changes = {k: m[0] for k, m in moved.items()}
+        if not g.train_rmse <= VALUE_TRAIN * f.train_rmse:
+            stopped = (f"the refit at N = {Nf} fits the training data worse ({_um(f.train_rmse)} -> "
+                       f"{_um(g.train_rmse)})")
+            break
+        if not any(m[1] for m in moved.values()):
+            converged = True
+            break
+        final = f = g
+    if final is not current:
+        say(f"values in N: not settled at N = {current.params.N} ("
+            + ", ".join(f"{k} {steps[0]['values'][k]:.4g} -> {v:.4g}" for k, v in steps[-1]["values"].items())
+            + f"): the final model is at N = {final.params.N} ({_um(_error(current))} -> {_um(_error(final))})")
+    return final, {"entries": [e.key for e in kept], "steps": steps, "changes": changes, "converged": converged,
+                   "N_final": final.params.N, "stopped": None if converged else stopped}
