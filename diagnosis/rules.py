@@ -26,6 +26,8 @@ CANDIDATE_NFEV = 25  # evaluations a candidate's fit may take (the spline law on
 RES_SHRINK = 0.5     # kept physics whose relative gain falls below this share when the elements double is
 #                      the model's discretization error (_resolution_check)
 RES_PREMISE = 1.0    # ... a check that holds only if the finer baseline fits better (ratio of errors below this)
+RES_WORSE = 1.1      # ... and the last entry's check stands down only where the kept model fits worse than this
+#                      share of its error at the coarser N (the ideal rig's data from N = 21: 2.2x at 41)
 RES_CUT = 0.8        # ... and checked once more at twice the finer N (while RAISE_MAX allows) when the squared
 #                      error it removes there is below this share of what it removed at N (_shrinks)
 RES_BETTER = 0.99    # ... and the kept model's refit there is the final model when its error is below this share
