@@ -206,8 +206,10 @@ def _multistart(dataset, spec, p, starts, holdout, executor, warm, judge=None):
     ends, errors = [], []
     for st in starts:
         try:
+            # from the nested start ({}) the warm fit's nuisances as they are; from a start away
+            # from it, less each condition's mean (fit.fit, demean)
             ends.append(fit(dataset, spec, base=p.replace(**st) if st else p, holdout=holdout, executor=executor,
-                            warm=warm, max_nfev=probe, held_out=held_out))
+                            warm=warm, max_nfev=probe, held_out=held_out, demean=bool(st)))
         except Exception as exc:   # a candidate the model cannot run: evidence says why
             errors.append(f"{type(exc).__name__}: {exc}")
     if not ends:
