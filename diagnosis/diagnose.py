@@ -55,7 +55,7 @@ from .levels import voltage_levels
 from .locate import locate
 from .resolution import _reselect_due, _reselect_record, _reselect_step, _resolution_check, _resolve
 from .rounds import _select
-from .rules import CANDIDATE_NFEV, RAISE_MAX, RES_BETTER, UNEXPLAINED, _error, _spec, _um, _unexplained
+from .rules import CANDIDATE_NFEV, CHECK_EXTRA, RAISE_MAX, RES_BETTER, UNEXPLAINED, _error, _spec, _um, _unexplained
 
 
 @dataclass
@@ -195,7 +195,8 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                 chain = list(kept)
         if any(e.kind == "physics" for e in kept):
             kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
-                                                         say, fine, before, refits, RAISE_MAX - len(raised))
+                                                         say, fine, before, refits,
+                                                         RAISE_MAX + CHECK_EXTRA - len(raised))
         values = None
         if any(e.kind == "physics" for e in kept):
             current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
