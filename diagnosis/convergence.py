@@ -60,7 +60,8 @@ def value_check(dataset, ctx, kept, current, refits, holdout, executor, say) -> 
     (the final model, the record or None when nothing physical was kept): {entries, steps:
     [{N, values, stderr, train_rmse, heldout_rmse}], changes ({key: relative change at the last
     doubling}), converged (bool), N_final, stopped (why the doublings ended, when the
-    values had not settled)}."""
+    values had not settled), finer_worse (the last refit fitted the training data worse:
+    the finer N is not nearer the data, and the values at N_final stand)}."""
     physics = [e for e in kept if e.kind == "physics"]
     if not physics:
         return current, None
@@ -75,7 +76,7 @@ def value_check(dataset, ctx, kept, current, refits, holdout, executor, say) -> 
         return st["values"][k], st["stderr"][k]
 
     steps, f, final = [step(current)], current, current
-    changes, converged, stopped = {}, False, None
+    changes, converged, stopped, finer_worse = {}, False, None, False
     while True:
         Nf = fine_N(f.params.N)
         if Nf > n_max:
@@ -96,8 +97,11 @@ def value_check(dataset, ctx, kept, current, refits, holdout, executor, say) -> 
         moved = {k: _moved(pair(steps[-2], k), pair(steps[-1], k)) for k in steps[-1]["values"]}
         changes = {k: m[0] for k, m in moved.items()}
         if not g.train_rmse <= VALUE_TRAIN * f.train_rmse:
+            # the finer model is not nearer the data (data made on the model's own grid, or a
+            # refit that did not get there): the values at f.params.N stand
             stopped = (f"the refit at N = {Nf} fits the training data worse ({_um(f.train_rmse)} -> "
                        f"{_um(g.train_rmse)})")
+            finer_worse = True
             break
         if not any(m[1] for m in moved.values()):
             converged = True
@@ -108,4 +112,4 @@ def value_check(dataset, ctx, kept, current, refits, holdout, executor, say) -> 
             + ", ".join(f"{k} {steps[0]['values'][k]:.4g} -> {v:.4g}" for k, v in steps[-1]["values"].items())
             + f"): the final model is at N = {final.params.N} ({_um(_error(current))} -> {_um(_error(final))})")
     return final, {"entries": [e.key for e in kept], "steps": steps, "changes": changes, "converged": converged,
-                   "N_final": final.params.N, "stopped": None if converged else stopped}
+                   "N_final": final.params.N, "stopped": None if converged else stopped, "finer_worse": finer_worse}

@@ -387,6 +387,9 @@ def values_phrase(D) -> str | None:
     if v["converged"]:
         return (f"the named values moved with the elements and settled ({vals} at N = {Ns}): the final model is at "
                 f"N = {v['N_final']} (values_in_N)")
+    if v.get("finer_worse"):
+        return (f"the named values moved at a finer N ({vals} at N = {Ns}), but {v['stopped']}: the data do not ask "
+                f"for it, and the final model is at N = {v['N_final']} (values_in_N)")
     return (f"the named values had not settled in N ({vals} at N = {Ns}; {v['stopped']}): the final model is at "
             f"N = {v['N_final']}, and a finer N may move them further (values_in_N)")
 

@@ -69,7 +69,10 @@ def test_a_finer_refit_that_fits_the_training_data_worse_is_not_taken(monkeypatc
     fits = {21: _fit(21, 0.058, 0.154, 2.35e-6), 41: _fit(41, 0.078, 0.159, 2.6e-6)}
     final, rec, made = _run(monkeypatch, fits)
     assert made == [41] and final is fits[21]
-    assert not rec["converged"] and "worse" in rec["stopped"]
+    assert not rec["converged"] and "worse" in rec["stopped"] and rec["finer_worse"]
+    from diagnosis.report import values_phrase
+    text = values_phrase(NS(values_in_N=rec))
+    assert "do not ask" in text and "N = 21 (values_in_N)" in text and "may move them further" not in text
 
 
 def test_nothing_physical_kept_is_not_followed(monkeypatch):
