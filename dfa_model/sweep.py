@@ -118,11 +118,11 @@ def run(cases, executor=None, max_workers=None, progress=True, fn=run_case, desc
     with owned_pool(executor) if own else nullcontext():
         futures = {executor.submit(fn, c): i for i, c in enumerate(cases)}
         rows = [None] * len(cases)
-        it = as_completed(futures)
-        if progress:
-            from tqdm import tqdm
-            it = tqdm(it, total=len(futures), desc=desc, unit="run")
+        it, bar = as_completed(futures), None
         try:
+            if progress:
+                from tqdm import tqdm
+                it = bar = tqdm(it, total=len(futures), desc=desc, unit="run")
             for fut in it:
                 i = futures[fut]
                 try:
@@ -134,6 +134,8 @@ def run(cases, executor=None, max_workers=None, progress=True, fn=run_case, desc
         except BaseException:
             for fut in futures:        # a caller's executor (Dask): drop what has not started
                 fut.cancel()
+            if bar is not None:        # end the bar's line: "dfa: interrupted" had been printed onto it
+                bar.close()
             raise
         return rows
 
