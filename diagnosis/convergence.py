@@ -62,8 +62,7 @@ def value_check(dataset, ctx, kept, current, refits, holdout, executor, say) -> 
     doubling}), converged (bool), N_final, stopped (why the doublings ended, when the
     values had not settled), finer_worse (the last refit fitted the training data worse:
     the finer N is not nearer the data, and the values at N_final stand)}."""
-    physics = [e for e in kept if e.kind == "physics"]
-    if not physics:
+    if not any(e.kind == "physics" for e in kept):
         return current, None
     n_max = VALUE_N_MAX * (dataset.params.N - 1) + 1
 

@@ -197,9 +197,7 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
             kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
                                                          say, fine, before, refits,
                                                          RAISE_MAX + CHECK_EXTRA - len(raised))
-        values = None
-        if any(e.kind == "physics" for e in kept):
-            current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
+        current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
         current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
         calibration = _calibration(dataset, current, executor, say)
         final_windows = locate(dataset, current) if current is not f0 else None

@@ -616,17 +616,22 @@ def _jobs_at(prob, base, spec, xp, k, R, T) -> list:
     return prob.jobs(p, xp[k:k + R], tz=xp[k + R:] if T else None)
 
 
+def log_factors(f, recs) -> list:
+    """Fit f's log resistivity factors of the recordings recs (0 where it has none)."""
+    return [math.log(f.rho_factors.get(r.name, 1.0)) for r in recs]
+
+
 def warm_deltas(warm, recs) -> list:
     """Start values of the recordings' log resistivity factors from an earlier fit: its
     factors less their mean over each condition. The deviations between repetitions are
     scatter that any model leaves to the nuisance; a condition's common factor is what
     the earlier model could not explain, and a candidate may: started there, the search
     kept most of it (Eq. 21 truth: the law came out scaled by 0.75, every factor 1.3)."""
-    d = {r.name: math.log(warm.rho_factors.get(r.name, 1.0)) for r in recs}
+    d = log_factors(warm, recs)
     by = {}
-    for r in recs:
-        by.setdefault(r.condition(), []).append(d[r.name])
-    return [d[r.name] - float(np.mean(by[r.condition()])) for r in recs]
+    for r, v in zip(recs, d):
+        by.setdefault(r.condition(), []).append(v)
+    return [v - float(np.mean(by[r.condition()])) for r, v in zip(recs, d)]
 
 
 def _start_nuisances(warm, resume, recs, demean=False) -> tuple:
@@ -634,12 +639,12 @@ def _start_nuisances(warm, resume, recs, demean=False) -> tuple:
     from: a resumed search's exactly where it stopped, else the warm fit's - as they are,
     or with `demean` less each condition's mean (warm_deltas) - else None."""
     if resume is not None:
-        return [math.log(resume.rho_factors.get(r.name, 1.0)) for r in recs], resume.timing
+        return log_factors(resume, recs), resume.timing
     if warm is None:
         return None, None
     if demean:
         return warm_deltas(warm, recs), warm.timing
-    return [math.log(warm.rho_factors.get(r.name, 1.0)) for r in recs], warm.timing
+    return log_factors(warm, recs), warm.timing
 
 
 def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=None, sigma_rep=SIGMA_REP,
@@ -687,7 +692,7 @@ def evaluate(dataset, fr: FitResult, params: Parameters, executor=None) -> FitRe
     sigma_rep = fr.lsq["sigma_rep"] if fr.lsq else SIGMA_REP
     runner = Runner(executor)
     probs = [Problem(rs, runner, fr.sigma, sigma_rep, decimate, False) for rs in (train, held)]
-    deltas = [[math.log(fr.rho_factors.get(r.name, 1.0)) for r in rs] for rs in (train, held)]
+    deltas = [log_factors(fr, rs) for rs in (train, held)]
     tzs = [pb.flat_timing(fr.timing) for pb in probs]
     jobs = [pb.jobs(params, d, tz=tz) for pb, d, tz in zip(probs, deltas, tzs)]
     runs = runner(jobs[0] + jobs[1])
@@ -725,7 +730,7 @@ def heldout_common_gain(dataset, fr: FitResult, executor=None, max_nfev=40) -> d
     decimate = fr.lsq["decimate"] if fr.lsq else DECIMATE
     sigma_rep = fr.lsq["sigma_rep"] if fr.lsq else SIGMA_REP
     runner = Runner(executor)
-    d0 = [math.log(fr.rho_factors.get(r.name, 1.0)) for r in held]
+    d0 = log_factors(fr, held)
 
     def rmse(xs):     # over every sample, as the held-out evaluation's (_aligned: the held-out ones as its first)
         return _aligned(held, xs, [], [], fr.sigma, "the fitted model does not run")[3]

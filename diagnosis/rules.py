@@ -39,8 +39,8 @@ RAISE_GAIN = 0.8     # ... else N is raised while the finer baseline's error is 
 LEAP_CUT = 0.1       # ... two doublings at once (_leap) only after one cut this share of a kept model's error
 RAISE_MAX = 2        # ... at most this many doublings of the elements (cost: ~2x per doubling)
 CHECK_EXTRA = 1      # ... and the resolution check's deeper checks (a cut that shrank) one doubling past that:
-#                      with both doublings spent on raising N they could not run, and a stiffness kept on a null
-#                      (unipolar, lab_fine) cut 51 % at N = 81 and 43 % at 161, its squared cut halved
+#                      with both doublings spent on raising N they could not run, and a law kept beside a series
+#                      resistance (unipolar, lab_fine) cut 45 % at N = 81, 25 % at 161 - and 15 % at 321: dropped
 TIE_SHARE = 0.9      # an accepted rival of another entry with this share of the best's BIC fall or more is
 #                      compared with it at twice the elements before one is kept (_tie_break)
 SHAPE_BIC = 6.0      # a flexible form takes one knot more when the BIC (which already charges each parameter
