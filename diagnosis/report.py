@@ -250,8 +250,8 @@ def conclusion(D) -> str:
             parts.append(f"the final model is at N = {r['N_fine']} (N = {r['N']} left its own discretization error: "
                          f"{r['kept_rmse'] * 1e6:.3g} um {r['measure']} RMSE against "
                          f"{r['kept_fine_rmse'] * 1e6:.3g} um{_first_check(r)})")
-    if values_phrase(D):
-        parts.append(values_phrase(D))
+    if (vp := values_phrase(D)):
+        parts.append(vp)
     # after the resolution's phrases: their errors are the warm refits' the cold one started from
     c = getattr(D, "cold", None)
     if c and c["taken"]:
@@ -572,7 +572,15 @@ def plot_terms(D, path) -> bool:
                         fmt="o")
             ax.set_xticks(range(len(pars)), list(pars))
             ax.set_title(e.name, fontsize=9)
-    fig.tight_layout()
+    v = getattr(D, "values_in_N", None)
+    if v and not v["converged"] and not v.get("finer_worse") and len(v["steps"]) > 1:
+        # the bands are the fit's statistical errors: they say nothing of the values' move with N
+        Ns = ", ".join(str(st["N"]) for st in v["steps"])
+        fig.text(0.5, 0.01, f"values not settled in N (fitted at N = {Ns}; values_in_N):\n"
+                 f"the bands are the fit's statistical errors only", ha="center", fontsize=7)
+        fig.tight_layout(rect=(0, 0.09, 1, 1))
+    else:
+        fig.tight_layout()
     write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     plt.close(fig)
     return True
