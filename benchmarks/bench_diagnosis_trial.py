@@ -207,6 +207,9 @@ def run_one(case: dict) -> dict:
             # the held-out error with the held-out monitors' common gain fitted as well (None: not asked)
             "heldout_common_gain": (report.get("heldout_common_gain") or {}).get("rmse"),
             "conclusion": report["conclusion"],
+            # kept entries the training conditions' common monitor gains stand in for (gain_account)
+            "not_separable": (report.get("gain_account") or {}).get("entries", [])
+            if (report.get("gain_account") or {}).get("separable") is False else [],
             "parameters": {k: v for m in report["missing_physics"] for k, v in m["parameters"].items()},
             "corrected": [k for k, v in report["corrected_parameters"].items() if v["corrected"] and k != "rho_l"],
             # the discretization checks' records: why an entry stood or was dropped, at which N
@@ -234,6 +237,13 @@ def summarize(rows: list) -> str:
             continue
         wrong = [",".join(r["named"]) or "nothing" for r in rs if not r["right"]]
         lines.append(f"{e:30s} {len(rs):3d} {sum(r['right'] for r in rs):6d}  {'; '.join(wrong)}")
+    ns = [r for r in rows if r.get("not_separable")]
+    if ns:
+        fa_ns = sum(bool(r["named"]) and r["effect"] == "null" for r in ns)
+        lines.append(f"named but not separable from the monitors' calibration (gain_account): {len(ns)} ("
+                     + ", ".join(f"{r['effect']}: {'+'.join(r['not_separable'])}" for r in ns)
+                     + f"); false alarms on nulls without them: {fa - fa_ns}/{len(nulls)}, right among the "
+                     f"effects flagged so: {sum(r['right'] for r in ns if r['effect'] != 'null')}")
     un = [r for r in rows if r.get("unexplained")]
     if un:
         lines.append(f"verdicts of unexplained mismatch: {len(un)} ("

@@ -51,6 +51,7 @@ from dfa_model.interrupt import stop_pool
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .convergence import value_check
 from .fit import fit, heldout_common_gain, local_executor
+from .gain_account import gain_account
 from .levels import voltage_levels
 from .locate import locate
 from .resolution import _reselect_due, _reselect_record, _reselect_step, _resolution_check, _resolve
@@ -82,6 +83,8 @@ class Diagnosis:
     reselect: dict | None = None               # the selection run again at the finer N (_reselect_due)
     # the held-out error with the held-out monitors' common gain free (_calibration)
     calibration: dict | None = None
+    # a kept stiffness against the training conditions' monitors' common gains (gain_account.py)
+    gain_account: dict | None = None
     values_in_N: dict | None = None            # the kept entries' values over doublings of N (convergence.py)
 
     @property
@@ -200,11 +203,12 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
         current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
         calibration = _calibration(dataset, current, executor, say)
+        account = gain_account(dataset, ctx, kept, current, holdout, executor, say)
         final_windows = locate(dataset, current) if current is not f0 else None
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
                          final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
                          raised=raised, suggested=suggested, cold=cold, taken=taken, reselect=reselect,
-                         calibration=calibration, values_in_N=values)
+                         calibration=calibration, values_in_N=values, gain_account=account)
     except BaseException:
         if own:                  # Ctrl-C or an error: the workers' runs are not waited for
             stop_pool(executor)

@@ -649,7 +649,7 @@ def _start_nuisances(warm, resume, recs, demean=False) -> tuple:
 
 def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=None, sigma_rep=SIGMA_REP,
         decimate=DECIMATE, z0=None, max_nfev=40, progress=None, warm=None, resume=None,
-        held_out=True, demean=False) -> FitResult:
+        held_out=True, demean=False, common_gain=False) -> FitResult:
     """Fit `spec` (list of FreeParameter) to the dataset's training recordings (module
     docstring). base: the parameters the spec is applied to (default the dataset's
     nominal actuator); holdout: conditions (V, F) to hold out (default choose_holdout);
@@ -665,14 +665,18 @@ def fit(dataset, spec, base: Parameters | None = None, holdout=None, executor=No
     whose search stopped early (max_nfev) - the search goes on from exactly where it
     stopped (its globals, factors and timing; base is its base), and the result counts
     its runs and time too; held_out=False: the held-out recordings are not fitted
-    (heldout_rmse None: a start of several that race on their cost, _multistart). BLAS
-    runs on one thread meanwhile (one_blas_thread)."""
+    (heldout_rmse None: a start of several that race on their cost, _multistart);
+    common_gain: each training condition's monitors' common gain is a nuisance too
+    (timing.gains; gain_account.py - not with held-out recordings, whose common gain would
+    be fitted on their own data). BLAS runs on one thread meanwhile (one_blas_thread)."""
+    if common_gain and held_out:
+        raise ValueError("common_gain: fit with held_out=False (a held-out condition's common gain is its own fit)")
     with threadpool_limits(1):
         if resume is None:
             return _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm,
-                        held_out=held_out, demean=demean)
+                        held_out=held_out, demean=demean, common_gain=common_gain)
         f = _fit(dataset, spec, resume.base, holdout, executor, sigma_rep, decimate, resume.z, max_nfev, progress,
-                 warm, resume, held_out=held_out)
+                 warm, resume, held_out=held_out, common_gain=common_gain)
         return replace(f, runs=f.runs + resume.runs, wall_time=f.wall_time + resume.wall_time)
 
 
@@ -778,7 +782,7 @@ def _condition_of(dataset, c) -> tuple:
 
 
 def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nfev, progress, warm,
-         resume=None, held_out=True, demean=False) -> FitResult:
+         resume=None, held_out=True, demean=False, common_gain=False) -> FitResult:
     wall = time.perf_counter()
     base = base or dataset.params
     holdout = choose_holdout(dataset) if holdout is None else [_condition_of(dataset, c) for c in holdout]
@@ -793,7 +797,7 @@ def _fit(dataset, spec, base, holdout, executor, sigma_rep, decimate, z0, max_nf
     z_start = start(base, spec) if z0 is None else np.asarray(z0, float)
     d0, t0 = _start_nuisances(warm, resume, train, demean)
     sol, prob, xs = _solve(train, base, spec, z_start, runner, sigma, sigma_rep, decimate, max_nfev, progress, d0,
-                           t0)
+                           t0, common_gain)
     n, T = prob.n, prob.T
     x = sol.x
     notes = []

@@ -81,6 +81,7 @@ def to_json(D) -> dict:
         "reselect": getattr(D, "reselect", None),
         "cold_refit": getattr(D, "cold", None),
         "heldout_common_gain": getattr(D, "calibration", None),
+        "gain_account": getattr(D, "gain_account", None),
         "drive_timing": drive_timing(D) or None,
         "monitor_gain": monitor_gain(D) or None,
         "zeros_fitted": zeros_fitted(D) or None,
@@ -211,6 +212,8 @@ def conclusion(D) -> str:
         parts.append("no missing physics verified")
     else:
         parts.append("no missing physics found")
+    if gain_account_phrase(D):
+        parts.append(gain_account_phrase(D))
     parts += raised_phrases(D.raised)
     if reselect_phrase(D):
         parts.append(reselect_phrase(D))
@@ -281,6 +284,49 @@ def conclusion(D) -> str:
     elif not D.held_out:
         parts.append(f"nothing could be held out ({D.nothing_held_out()})")
     return "; ".join(parts)
+
+
+def gain_account_phrase(D) -> str | None:
+    """What the training conditions' monitors' common gains make of a kept stiffness
+    (gain_account.py), when they fit the training recordings as well: the recordings cannot
+    tell the two apart."""
+    a = getattr(D, "gain_account", None)
+    if not a or "error" in a or a["separable"]:
+        return None
+    gains = ", ".join(f"{c['gain']:+.2%} at {c['voltage'] / 1e3:.3g} kV, {c['force']:.3g} N" for c in a["conditions"])
+    sd = min(c["prior_sd"] for c in a["conditions"])
+    need = max(abs(c["gain"]) for c in a["conditions"])
+    which = " and ".join(a["entries"])
+    return (f"{which} cannot be told from the voltage monitors' calibration in these recordings: the final model "
+            f"without it, each training condition's monitor reading off by a common gain ({gains}; prior SD "
+            f"{sd:.2%} or more), fits them as well ({a['train_rmse'] * 1e6:.3g} um against "
+            f"{a['train_rmse_kept'] * 1e6:.3g} um) - with the monitors calibrated to better than {need:.2%}, or more "
+            f"conditions recorded, the data would tell (gain_account)")
+
+
+def gain_account_lines(a) -> list:
+    """report.md's section on a kept stiffness against the training conditions' monitors'
+    common gains (gain_account.py)."""
+    if not a:
+        return []
+    which = " and ".join(a["entries"])
+    L = ["", f"## {which} against the voltage monitors' calibration", ""]
+    if "error" in a:
+        return L + [f"The final model without {which}, with each condition's common monitor gain free, could not be "
+                    f"fitted ({a['error']})."]
+    L += [f"At each condition a stiffness is nearly a constant force, and so is a voltage monitor reading off by a "
+          f"common gain (the Maxwell force scales as (1 + g)^2). The final model without {which}, refitted at "
+          f"N = {a['N']} with each training condition's common gain free (the per-recording prior on the "
+          f"recordings' mean):", "",
+          "| condition | common gain | prior SD |", "|---|---|---|"]
+    L += [f"| {c['voltage'] / 1e3:.3g} kV, {c['force']:.3g} N | {c['gain']:+.3%} | {c['prior_sd']:.2%} |"
+          for c in a["conditions"]]
+    why = " (they fit the training recordings worse)" if not a["fits_as_well"] else " (beyond 2 prior SDs)"
+    verdict = ("The recordings cannot tell the two apart: calibrate the monitors to better than the gains above, or "
+               "record more conditions." if not a["separable"] else f"The gains do not stand in for it{why}: {which} "
+               "stands.")
+    return L + ["", f"Training RMSE {a['train_rmse'] * 1e6:.3g} um against {a['train_rmse_kept'] * 1e6:.3g} um with "
+                f"{which}. {verdict}"]
 
 
 def calibration_phrase(D) -> str | None:
@@ -696,6 +742,7 @@ def to_markdown(D, report: dict, plots: dict) -> str:
           "", "## Fitted parameters", "", "| parameter | nominal | fitted | standard error |", "|---|---|---|---|"]
     for k, v in D.final.values.items():
         L.append(f"| {k} | {getattr(D.dataset.params, k, '-')} | {v:.4g} | {D.final.stderr[k]:.2g} |")
+    L += gain_account_lines(report.get("gain_account"))
     L += ["", "## Where the baseline misses", ""]
     sysw = [w for w in D.windows if w.systematic]
     if not sysw:
