@@ -712,6 +712,47 @@ def evaluate(dataset, fr: FitResult, params: Parameters, executor=None) -> FitRe
                    notes=[f"evaluated at N = {params.N} with the fit's values and nuisances, not refitted"])
 
 
+def predicted_refit(dataset, fr: FitResult, params: Parameters, executor=None) -> dict | None:
+    """What a refit of fr at `params` (its values at another N, say) would give, from one
+    Gauss-Newton step: fr's training recordings run at params with fr's own nuisances (one
+    run each, in one batch), and the step that fr's Jacobian (lsq J, at its solution) gives
+    against those residuals. Returns {z (the spec's coordinates after the step), fit (a
+    FitResult of fr's spec at them, fr's errors: model_values carries them), cost_at (the
+    cost at fr's values there), cost_step (the step's linear prediction), train_rmse_at (the
+    training RMSE at fr's values there, every sample), runs}; None without fr's Jacobian.
+    The step lies within fr's bounds (clipped)."""
+    if not fr.lsq or "J" not in fr.lsq:
+        return None
+    by = {r.name: r for r in dataset.recordings}
+    train = [by[n] for n in fr.train]
+    lsq, k = fr.lsq, len(fr.spec)
+    runner = Runner(executor)
+    prob = Problem(train, runner, fr.sigma, lsq["sigma_rep"], lsq["decimate"], lsq["pin"])
+    deltas, tz = lsq["deltas"], (lsq["tz"] if len(lsq["tz"]) else None)
+    with threadpool_limits(1):
+        xs = prob.runs(params, deltas, tz=tz)
+    if any(isinstance(x, str) for x in xs):
+        return None
+    r = prob.residuals(xs, deltas, tz)
+    J = lsq["J"]
+    if J.shape[0] != r.size:
+        return None
+    dx = -np.linalg.lstsq(J, r, rcond=None)[0]
+    lo = np.array([f.z_bounds()[0] for f in fr.spec])
+    hi = np.array([f.z_bounds()[1] for f in fr.spec])
+    z = np.clip(fr.z + dx[:k], lo, hi)
+    r_step = r + J @ np.concatenate([z - fr.z, dx[k:]])
+    base = fr.base.replace(N=params.N)
+    g = replace(fr, base=base, params=apply(base, fr.spec, z), z=z,
+                values={f.key: f.from_z(z[i]) for i, f in enumerate(fr.spec)},
+                stderr={f.key: (f.from_z(z[i]) * fr.stderr[f.key] / max(abs(fr.values[f.key]), 1e-300) if f.log
+                                else fr.stderr[f.key]) for i, f in enumerate(fr.spec)},
+                notes=[f"predicted at N = {params.N} by one Gauss-Newton step from the fit at N = {fr.params.N}"])
+    rmse = _aligned(train, xs, [], [], fr.sigma, "the model does not run")[3]
+    return {"z": z, "fit": g, "cost_at": 0.5 * float(r @ r), "cost_step": 0.5 * float(r_step @ r_step),
+            "train_rmse_at": rmse, "runs": runner.runs}
+
+
 def heldout_common_gain(dataset, fr: FitResult, executor=None, max_nfev=40) -> dict | None:
     """fr's held-out recordings fitted again with fr's physics, their nuisances as before
     and each held-out condition's monitors' common gain free as well (timing.gains with

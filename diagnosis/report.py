@@ -427,7 +427,7 @@ def values_phrase(D) -> str | None:
     v = getattr(D, "values_in_N", None)
     if not v or len(v["steps"]) < 2 or (v["converged"] and len(v["steps"]) == 2):
         return None
-    Ns = ", ".join(str(st["N"]) for st in v["steps"])
+    Ns = ", ".join(str(st["N"]) + (" (one Gauss-Newton step)" if st.get("predicted") else "") for st in v["steps"])
     vals = "; ".join(f"{k} " + ", ".join(f"{st['values'][k]:.3g}" for st in v["steps"])
                      for k in list(v["steps"][0]["values"])[:3])
     if v["converged"]:

@@ -92,3 +92,74 @@ def test_the_conclusion_says_when_the_values_had_not_settled(monkeypatch):
     fits = {21: _fit(21, 0.100, 0.30), 41: _fit(41, 0.104, 0.31, 2.2e-6)}
     _, rec, _ = _run(monkeypatch, fits)
     assert values_phrase(NS(values_in_N=rec)) is None      # settled at once: nothing to say
+
+
+def _predicting(monkeypatch, by_N):
+    """value_check's one-step predictions drawn from by_N {N: fit-like}; returns the N asked."""
+    asked = []
+
+    def fake(dataset, f, params, executor=None):
+        asked.append(params.N)
+        return {"fit": by_N[params.N]}
+    monkeypatch.setattr(cv, "predicted_refit", fake)
+    return asked
+
+
+def test_a_doubling_one_gauss_newton_step_settles_is_not_refitted(monkeypatch):
+    """The step predicts chi_p 0.100 -> 0.103 (3 %, within half of 10 %): settled without the
+    refit; the record's step is marked predicted, and the conclusion says nothing."""
+    from diagnosis.report import values_phrase
+    asked = _predicting(monkeypatch, {41: _fit(41, 0.103, 0.305)})
+    fits = {21: _fit(21, 0.100, 0.30)}
+    final, rec, made = _run(monkeypatch, fits)
+    assert asked == [41] and made == [] and final is fits[21]
+    assert rec["converged"] and rec["steps"][-1]["predicted"] and rec["steps"][-1]["train_rmse"] is None
+    assert rec["changes"]["chi_p"] == pytest.approx(0.003 / 0.103)
+    assert values_phrase(NS(values_in_N=rec)) is None
+
+
+def test_a_doubling_the_step_moves_is_refitted_and_the_last_settles_by_prediction(monkeypatch):
+    """Predicted moves of 7 % (more than half of 10 %, and many standard errors) are
+    refitted; at the next doubling the step predicts 1 %: the values settled at the refit's
+    N, and the conclusion marks the predicted N."""
+    from diagnosis.report import values_phrase
+    asked = _predicting(monkeypatch, {41: _fit(41, 0.107, 0.30), 81: _fit(81, 0.1212, 0.30)})
+    fits = {21: _fit(21, 0.100, 0.30, 2.35e-6), 41: _fit(41, 0.120, 0.30, 2.2e-6)}
+    final, rec, made = _run(monkeypatch, fits)
+    assert asked == [41, 81] and made == [41] and final is fits[41] and rec["converged"]
+    assert [st.get("predicted", False) for st in rec["steps"]] == [False, False, True]
+    assert "81 (one Gauss-Newton step)" in values_phrase(NS(values_in_N=rec))
+
+
+def test_one_gauss_newton_step_predicts_a_refit_at_twice_the_elements(tmp_path):
+    """fit.predicted_refit on a polarization branch under 1 Hz polarity inversion (the truth
+    at 161 points, lab channels, no rest stretch) fitted at N = 11, where the model's own
+    discretization moves chi_p: the step's move has the refit's sign and 60-140 % of its size,
+    its cost is within 15 % of the refit's, and it costs one run per recording."""
+    import warnings
+    from dfa_model.io.recordings import read_dataset
+    from dfa_model.io.synthetic import Measurement, generate_dataset
+    from diagnosis.catalog import Context
+    from diagnosis.fit import fit, predicted_refit
+    from diagnosis.rules import _prepared, _spec
+    warnings.simplefilter("ignore")
+    nominal = preset("vshape-table1").replace(N=11, rho_l=3e12)
+    meas = Measurement(noise=1e-6, quantum=0.4e-6, offset=15e-6, voltage_gain=0.002, voltage_noise=10.0,
+                       force_noise=0.02, rho_spread=0.04)
+    generate_dataset(tmp_path / "data", nominal.replace(rho_l=2e12, N=161, chi_p=0.12, tau_p=0.2), nominal,
+                     [(6000.0, 3.0), (6000.0, 5.0)], repetitions=2, reset=3.0, hold=0.0, reset_frequency=1.0,
+                     measurement=meas, seed=4, pretrigger=0.0, drive="inversion")
+    ds = read_dataset(tmp_path / "data")
+    ctx = Context.of(ds)
+    p, spec = _prepared(ds.params.replace(chi_p=0.12, tau_p=0.2), [BRANCH], ctx)
+    f = fit(ds, spec, base=p, holdout=[])
+    pr = predicted_refit(ds, f, f.params.replace(N=21))
+    pk = f.params.replace(N=21)
+    g = fit(ds, _spec(pk, ctx, [BRANCH]), base=pk, holdout=[], warm=f, max_nfev=12)
+    pred, real = pr["fit"].values["chi_p"] - f.values["chi_p"], g.values["chi_p"] - f.values["chi_p"]
+    print(f"\nchi_p {f.values['chi_p']:.4g} -> predicted {pr['fit'].values['chi_p']:.4g}, refit {g.values['chi_p']:.4g}; "
+          f"cost {f.cost:.0f} at N = 21 {pr['cost_at']:.0f} step {pr['cost_step']:.0f} refit {g.cost:.0f}")
+    assert abs(real) > 10 * f.stderr["chi_p"]                    # the premise: the model's own N moves it
+    assert 0.6 < pred / real < 1.4
+    assert abs(pr["cost_step"] / g.cost - 1) < 0.15 and pr["cost_at"] > g.cost
+    assert pr["runs"] == len(f.train) and pr["fit"].params.N == 21
