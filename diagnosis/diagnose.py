@@ -54,7 +54,9 @@ from .fit import fit, heldout_common_gain, local_executor
 from .gain_account import gain_account
 from .levels import voltage_levels
 from .locate import locate
-from .resolution import _reselect_due, _reselect_record, _reselect_step, _resolution_check, _resolve
+from .resolution import (
+    _raise_training, _reselect_due, _reselect_record, _reselect_step, _resolution_check, _resolve,
+)
 from .rounds import _select
 from .rules import CANDIDATE_NFEV, CHECK_EXTRA, RAISE_MAX, RES_BETTER, UNEXPLAINED, _error, _spec, _um, _unexplained
 
@@ -201,6 +203,8 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
                                                          say, fine, before, refits,
                                                          RAISE_MAX + CHECK_EXTRA - len(raised))
         current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
+        current, f0, trained = _raise_training(dataset, ctx, kept, current, f0, holdout, executor, refits, say)
+        raised = raised + trained
         current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
         calibration = _calibration(dataset, current, executor, say)
         account = gain_account(dataset, ctx, kept, current, holdout, executor, say)

@@ -168,6 +168,7 @@ def write_protocols(D, out: Path) -> dict:
 
 NOTHING_KEPT = "(nothing kept)"   # a Diagnosis.raised step's `after` when the rounds kept nothing (resolution last)
 RESELECTED = "(selection run again)"   # ... when the kept set's cut shrank at the finer N (resolution._reselect_due)
+TRAINING = "(training error)"   # ... when the final model's training error fell at the finer N (resolution._raise_training)
 
 
 def raised_phrases(raised: list) -> list:
@@ -188,7 +189,9 @@ def raised_phrases(raised: list) -> list:
             continue
         when, whose = ("before the selection", "the baseline's") if after is None else \
             ("after the selection kept nothing (resolution last)", "the baseline's") \
-            if after == NOTHING_KEPT else (f"after {after} was kept", "the kept model's")
+            if after == NOTHING_KEPT else \
+            ("for the trained conditions", "the final model's training") if after == TRAINING else \
+            (f"after {after} was kept", "the kept model's")
         out.append(f"N raised from {a['N']} to {b['N_fine']} {when}: {whose} error {a['error'] * 1e6:.3g} -> "
                    f"{b['error_fine'] * 1e6:.3g} um (the model's own resolution, not missing physics)"
                    + (f"; {b['dropped']} dropped there: its gain did not hold at the finer N (it took up the "

@@ -3,12 +3,13 @@
 raise (_raise_kept, _leap), the checks at twice the elements (_resolution_check: the kept
 set, its last entry, the earlier ones, a doubling deeper where the cut shrinks) and the
 selection run again at the finer N when the coarse N may have chosen the entry
-(_reselect_due)."""
+(_reselect_due), and a final model whose training error alone is unexplained refitted at
+finer N while that error falls (_raise_training)."""
 from __future__ import annotations
 
 from .catalog import baseline_spec
 from .fit import evaluate, fit
-from .improved import NOTHING_KEPT, RESELECTED
+from .improved import NOTHING_KEPT, RESELECTED, TRAINING
 from .model import apply
 from .rules import (
     CANDIDATE_NFEV, LEAP_CUT, RAISE_FLOOR, RAISE_GAIN, RAISE_MAX, RES_BETTER, RES_NFEV, RES_PREMISE, RES_SHRINK,
@@ -400,6 +401,53 @@ def _marginal(rec, dataset, fb, ctx, kept, current, before, kf, holdout, executo
             rec["kept_rmse"], rec["kept_fine_rmse"], rec["refined"] = _error(current), _error(kf.best()), True
             rec["N_final"] = kf.best().params.N
     return kept, kf
+
+
+TRAIN_N_MAX = 8      # _raise_training: N at most this many times the dataset's nominal N (as the value check)
+
+
+def _raise_training(dataset, ctx, kept, current, f0, holdout, executor, refits, say) -> tuple:
+    """Resolution for the trained conditions, before a verdict of unexplained mismatch in
+    training: every resolution step above judges the held-out error (else training), and
+    the held-out condition lies between the trained ones, where the model converges
+    first. Under unipolar pulses (lab_fine rig, a null, trial seed 591484664) the held-out
+    5 N condition was resolved at N = 81 (1.78 um against 1.59 um noise) while the 3 N one
+    left 4.7 um, and the verdict was "unexplained mismatch: training 3.59 um, 2.1x the
+    noise"; the baseline at N = 161 and 321 left 2.57 and 2.27 um (the 3 N condition 3.3
+    and 2.8 um: the front crossing the nodes as it recedes, physics guide). So while the
+    final model leaves its training error alone at UNEXPLAINED noises or more, it is
+    refitted at fine_N (warm, RES_NFEV evaluations; a refit already made is used) and taken
+    while that error falls below RAISE_GAIN of it with the held-out error no worse than
+    RES_WORSE times, up to TRAIN_N_MAX times the nominal N. Returns (final model, baseline
+    (the finer one when the final model was the baseline), the steps taken, as
+    Diagnosis.raised's with `after` TRAINING and training errors)."""
+    steps = []
+    n_max = TRAIN_N_MAX * (dataset.params.N - 1) + 1
+    while True:
+        u = _unexplained(current)
+        Nf = fine_N(current.params.N)
+        if u is None or u[1] != "training" or Nf > n_max:
+            break
+        g = _refit_of(refits, current, Nf)
+        if g is None:
+            say(f"the final model leaves {_um(current.train_rmse)} in training: refitted at N = {Nf}")
+            pk = current.params.replace(N=Nf)
+            try:
+                g = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
+                        max_nfev=RES_NFEV)
+            except Exception:          # the finer model cannot run: the verdict stands at N
+                break
+            refits.append((current, g))
+        held_ok = g.heldout_rmse is None or g.heldout_rmse <= RES_WORSE * current.heldout_rmse
+        if not (g.train_rmse < RAISE_GAIN * current.train_rmse and held_ok):
+            break
+        say(f"the training error falls at N = {Nf} ({_um(current.train_rmse)} -> {_um(g.train_rmse)}): the final "
+            f"model is there")
+        steps.append({"N": current.params.N, "error": current.train_rmse, "N_fine": Nf, "error_fine": g.train_rmse,
+                      "after": TRAINING})
+        f0 = g if current is f0 else f0
+        current = g
+    return current, f0, steps
 
 
 def _refit_of(refits, f, N):
