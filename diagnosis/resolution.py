@@ -297,11 +297,14 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
             kfd = _KeptFine(dataset, fk.params.replace(N=Nd), ctx, kept, fk, holdout, executor, refits)
             premise = _error(ffd) < RES_PREMISE * _error(ff)
             holds_d, fkd = _holds(kfd, ffd, gain) if premise else (None, None)
-            if not premise or (not holds_d and _error(fkd) > _error(fk)):
-                # the deeper baseline fitting no better, or the kept model there worse than at
-                # the first finer N (a refit that did not get there: a law under inversion, 4.39
-                # um at N = 41, 5.26 um at 81, the baseline 5.82 and 5.86): the premise fails,
-                # the first check stands (a real law was dropped on it)
+            if not premise or (not holds_d and _error(fkd) > RES_WORSE * _error(fk)):
+                # the deeper baseline fitting no better, or the kept model there clearly worse
+                # than at the first finer N (a refit that did not get there: a law under
+                # inversion, 4.39 um at N = 41, 5.26 um at 81, the baseline 5.82 and 5.86): the
+                # premise fails, the first check stands (a real law was dropped on it). Not a
+                # hair worse: a spline law on an inversion null (lab_fine, trial seed 429800168,
+                # #10) left 1.461 um at 41 and 1.476 at 81, where the baseline alone reached
+                # 1.486 (1.04 noises) - it was named on the check at 41
                 first["deeper"] = {"N": Nd, "baseline_rmse": _error(ffd), "inconclusive": True,
                                    "kept_rmse": None if fkd is None else _error(fkd)}
                 say(f"resolution check: at N = {Nd} the models fit no better: the check at N = {Nf} stands")
