@@ -729,15 +729,15 @@ def predicted_refit(dataset, fr: FitResult, params: Parameters, executor=None) -
     runner = Runner(executor)
     prob = Problem(train, runner, fr.sigma, lsq["sigma_rep"], lsq["decimate"], lsq["pin"])
     deltas, tz = lsq["deltas"], (lsq["tz"] if len(lsq["tz"]) else None)
-    with threadpool_limits(1):
+    with threadpool_limits(1):      # the step's least squares too (one_blas_thread)
         xs = prob.runs(params, deltas, tz=tz)
-    if any(isinstance(x, str) for x in xs):
-        return None
-    r = prob.residuals(xs, deltas, tz)
-    J = lsq["J"]
-    if J.shape[0] != r.size:
-        return None
-    dx = -np.linalg.lstsq(J, r, rcond=None)[0]
+        if any(isinstance(x, str) for x in xs):
+            return None
+        r = prob.residuals(xs, deltas, tz)
+        J = lsq["J"]
+        if J.shape[0] != r.size:
+            return None
+        dx = -np.linalg.lstsq(J, r, rcond=None)[0]
     lo = np.array([f.z_bounds()[0] for f in fr.spec])
     hi = np.array([f.z_bounds()[1] for f in fr.spec])
     z = np.clip(fr.z + dx[:k], lo, hi)
