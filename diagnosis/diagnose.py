@@ -52,6 +52,7 @@ from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .convergence import value_check
 from .fit import fit, heldout_common_gain, local_executor
 from .gain_account import gain_account
+from .self_error import self_check
 from .levels import voltage_levels
 from .locate import locate
 from .resolution import (
@@ -87,6 +88,7 @@ class Diagnosis:
     calibration: dict | None = None
     # a kept stiffness against the training conditions' monitors' common gains (gain_account.py)
     gain_account: dict | None = None
+    self_error: dict | None = None             # the final model's own discretization error (self_error.py)
     values_in_N: dict | None = None            # the kept entries' values over doublings of N (convergence.py)
 
     @property
@@ -208,11 +210,13 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
         calibration = _calibration(dataset, current, executor, say)
         account = gain_account(dataset, ctx, kept, current, holdout, executor, say)
+        own_error = self_check(dataset, current, executor, say)
         final_windows = locate(dataset, current) if current is not f0 else None
         return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
                          final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
                          raised=raised, suggested=suggested, cold=cold, taken=taken, reselect=reselect,
-                         calibration=calibration, values_in_N=values, gain_account=account)
+                         calibration=calibration, values_in_N=values, gain_account=account,
+                         self_error=own_error)
     except BaseException:
         if own:                  # Ctrl-C or an error: the workers' runs are not waited for
             stop_pool(executor)

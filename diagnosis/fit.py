@@ -753,6 +753,29 @@ def predicted_refit(dataset, fr: FitResult, params: Parameters, executor=None) -
             "train_rmse_at": rmse, "runs": runner.runs}
 
 
+def self_error(dataset, fr: FitResult, N_ref: int, executor=None) -> float | None:
+    """The model's own discretization error at fr's fitted values: the RMS difference (m,
+    over every sample of the training recordings, each with its own resistivity factor and
+    drive timing) between fr's model at its N and the same model at N_ref - no data
+    enter. None when a run fails or fr has no fit record."""
+    if not fr.lsq:
+        return None
+    by = {r.name: r for r in dataset.recordings}
+    train = [by[n] for n in fr.train]
+    lsq = fr.lsq
+    runner = Runner(executor)
+    prob = Problem(train, runner, fr.sigma, lsq["sigma_rep"], lsq["decimate"], False)
+    tz = lsq["tz"] if len(lsq["tz"]) else None
+    with threadpool_limits(1):
+        runs = runner(prob.jobs(fr.params, lsq["deltas"], tz=tz) + prob.jobs(fr.params.replace(N=N_ref), lsq["deltas"],
+                                                                              tz=tz))
+    if any(isinstance(x, str) for x in runs):
+        return None
+    a, b = runs[:len(train)], runs[len(train):]
+    sq = sum(float(np.sum((x[0] - y[0]) ** 2)) for x, y in zip(a, b))     # row 0: the stroke (_run)
+    return math.sqrt(sq / sum(x.shape[1] for x in a))
+
+
 def heldout_common_gain(dataset, fr: FitResult, executor=None, max_nfev=40) -> dict | None:
     """fr's held-out recordings fitted again with fr's physics, their nuisances as before
     and each held-out condition's monitors' common gain free as well (timing.gains with

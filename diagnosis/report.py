@@ -82,6 +82,7 @@ def to_json(D) -> dict:
         "cold_refit": getattr(D, "cold", None),
         "heldout_common_gain": getattr(D, "calibration", None),
         "gain_account": getattr(D, "gain_account", None),
+        "self_error": getattr(D, "self_error", None),
         "drive_timing": drive_timing(D) or None,
         "monitor_gain": monitor_gain(D) or None,
         "zeros_fitted": zeros_fitted(D) or None,
@@ -214,6 +215,8 @@ def conclusion(D) -> str:
         parts.append("no missing physics found")
     if gain_account_phrase(D):
         parts.append(gain_account_phrase(D))
+    if self_error_phrase(D):
+        parts.append(self_error_phrase(D))
     parts += raised_phrases(D.raised)
     if reselect_phrase(D):
         parts.append(reselect_phrase(D))
@@ -284,6 +287,18 @@ def conclusion(D) -> str:
     elif not D.held_out:
         parts.append(f"nothing could be held out ({D.nothing_held_out()})")
     return "; ".join(parts)
+
+
+def self_error_phrase(D) -> str | None:
+    """The final model's own discretization error at its fitted values (self_error.py),
+    when it reaches the noise: the named values carry the grid's bias."""
+    s = getattr(D, "self_error", None)
+    if not s or not s["flagged"]:
+        return None
+    fine = (f", {s['rmse_fine'] * 1e6:.3g} um at N = {s['N_fine']}" if s.get("rmse_fine") is not None else "")
+    return (f"the final model is {s['rmse'] * 1e6:.3g} um off its own solution at N = {s['N_ref']} at its fitted values "
+            f"(N = {s['N']}, {s['ratio']:.1f}x the sensor noise{fine}): its values carry the grid's bias - "
+            f"diagnose again with a finer N in the dataset's actuator file (self_error)")
 
 
 def gain_account_phrase(D) -> str | None:
