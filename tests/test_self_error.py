@@ -57,3 +57,46 @@ def test_a_coarse_branch_is_far_from_its_own_continuum_and_the_plain_model_is_no
     resolved = self_check(ds, replace(f0, params=f0.params.replace(rho_l=2e12)), None, lambda s: None)
     assert not resolved["flagged"] and "rmse_fine" not in resolved
     assert self_error_phrase(NS(self_error=resolved)) is None
+
+
+def test_the_n_the_diagnosis_runs_again_at():
+    """The branch above: 8.96 um at N = 21, 4.65 at 41 (0.52 per doubling), 1.7 um noise:
+    81 -> 2.4, 161 -> 1.25 um, within 1 noise: N = 161, within 8x the nominal 21."""
+    from diagnosis.self_error import again_N
+    rec = {"N": 21, "N_ref": 81, "rmse": 8.96e-6, "rmse_fine": 4.65e-6, "ratio": 5.3, "flagged": True}
+    assert again_N(rec, 21, 1.7e-6) == 161
+    assert again_N(rec, 11, 1.7e-6) == 81           # 8x a nominal 11 at most: the finest allowed
+    assert again_N(dict(rec, N=161), 21, 1.7e-6) is None          # already at 8x the nominal
+    assert again_N(dict(rec, rmse=3.0e-6, rmse_fine=1.5e-6), 21, 1.7e-6) is None   # under 2 noises: said only
+    assert again_N(dict(rec, rmse_fine=9.5e-6), 21, 1.7e-6) is None                # not falling
+    assert again_N(dict(rec, rmse_fine=None), 21, 1.7e-6) is None
+    assert again_N(None, 21, 1.7e-6) is None
+
+
+def test_the_diagnosis_runs_again_once_at_that_n_and_says_why(monkeypatch):
+    import importlib
+    from diagnosis.report import again_phrase
+    dg = importlib.import_module("diagnosis.diagnose")
+    runs = []
+    own = {"N": 21, "N_ref": 81, "rmse": 8.96e-6, "rmse_fine": 4.65e-6, "ratio": 5.3, "flagged": True}
+
+    def fake(dataset, executor, say, holdout, candidates, wall):
+        runs.append(dataset.params.N)
+        first = len(runs) == 1
+        return NS(self_error=own if first else dict(own, N=321, rmse=1.1e-6, rmse_fine=None, flagged=False),
+                  final=NS(sigma=1.7e-6, params=NS(N=21 if first else 321), train_rmse=2.5e-6, heldout_rmse=2.45e-6),
+                  missing_physics=[NS(key="polarization_branch"), NS(key="field_dependent_resistivity (Eq. 21)")]
+                  if first else [NS(key="polarization_branch")], wall_time=112.0, again=None)
+    monkeypatch.setattr(dg, "_diagnose", fake)
+    from dfa_model.io.recordings import Dataset
+    ds = Dataset(folder=None, params=preset("vshape-table1").replace(N=21), recordings=[])
+    D = dg.diagnose(ds, executor=NS())
+    assert runs == [21, 161] and D.final.params.N == 321
+    assert D.again["N_again"] == 161 and D.again["missing_physics"][1] == "field_dependent_resistivity (Eq. 21)"
+    text = again_phrase(D)
+    assert "diagnosed again at N = 161 (the dataset's 21)" in text and "8.96 um off its own solution at N = 81" in text
+    # resolved on the first run: once only
+    runs.clear()
+    own = dict(own, rmse=1.0e-6, rmse_fine=0.5e-6, ratio=0.6, flagged=False)
+    D = dg.diagnose(ds, executor=NS())
+    assert runs == [21] and D.again is None and again_phrase(D) is None
