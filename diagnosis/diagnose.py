@@ -52,7 +52,7 @@ from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .convergence import value_check
 from .fit import fit, heldout_common_gain, local_executor
 from .gain_account import gain_account
-from .self_error import again_N, self_check
+from .self_error import self_check
 from .levels import voltage_levels
 from .locate import locate
 from .resolution import (
@@ -89,7 +89,6 @@ class Diagnosis:
     # a kept stiffness against the training conditions' monitors' common gains (gain_account.py)
     gain_account: dict | None = None
     self_error: dict | None = None             # the final model's own discretization error (self_error.py)
-    again: dict | None = None                  # the first run when the diagnosis ran again at a finer N (again_N)
     values_in_N: dict | None = None            # the kept entries' values over doublings of N (convergence.py)
 
     @property
@@ -158,20 +157,66 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
     if own:
         executor = local_executor()
     try:
-        D = _diagnose(dataset, executor, say, holdout, candidates, wall)
-        N2 = again_N(D.self_error, dataset.params.N, D.final.sigma)
-        if N2 is not None:
-            s = D.self_error
-            say(f"the final model is {_um(s['rmse'])} off its own solution at N = {s['N_ref']} ({s['ratio']:.1f}x the "
-                f"noise): the diagnosis runs again at N = {N2}")
-            first = D
-            D = _diagnose(replace(dataset, params=dataset.params.replace(N=N2)), executor, say, holdout, candidates,
-                          wall)
-            D.again = {"N_nominal": dataset.params.N, "N_again": N2, "self_error": first.self_error,
-                       "missing_physics": [e.key for e in first.missing_physics], "N_final": first.final.params.N,
-                       "train_rmse": first.final.train_rmse, "heldout_rmse": first.final.heldout_rmse,
-                       "wall_time": first.wall_time}
-        return D
+        base = dataset.params
+        ctx = Context.of(dataset)
+        say("baseline fit (rho_l)")
+        f0 = fit(dataset, baseline_spec(base, ctx), base=base, holdout=holdout, executor=executor)
+        base, f0, raised, fine = _resolve(dataset, base, ctx, f0, holdout, executor, say)
+        # where the field laws also start: each training voltage's own level (levels.py)
+        ctx = replace(ctx, levels=voltage_levels(dataset, f0, ctx, executor))
+        say(f"baseline: train RMSE {f0.train_rmse * 1e6:.3g} um, held out {_um(f0.heldout_rmse)}; locating")
+        pool = list(candidates) if candidates is not None else PHYSICS + NOMINAL
+        rounds, refits = [], []     # (a fit, its refit at fine_N) made on the way (_raise_kept)
+        base, f0, kept, current, before, raised, fine, windows, trends, taken = _select(
+            dataset, base, ctx, f0, pool, raised, fine, rounds, refits, holdout, executor, say)
+        resolution, chain, unverified, suggested, reselect = None, list(kept), [], None, None
+        if kept and not f0.heldout:
+            # nothing held out: the rounds' choices rest on the training data alone (a BIC can
+            # always be lowered by a parameter that bends the model to one condition): they are
+            # suggestions, the final model stays the baseline
+            unverified, suggested, kept, current = list(kept), current, [], f0
+            say(f"nothing held out: {', '.join(e.key for e in unverified)} not applied (unverified suggestions)")
+        if any(e.kind == "physics" for e in kept):
+            ff, fk, due = _reselect_due(dataset, base, ctx, kept, current, f0, holdout, executor, refits, fine,
+                                        RAISE_MAX - len(raised))
+            fine = ff if ff is not None else fine
+            if due:
+                step = _reselect_step(base, kept, current, f0, ff, fk)
+                Nf = ff.params.N
+                say(f"{' + '.join(e.key for e in kept)} removed at N = {Nf} {step['cut_ratio']:.0%} of the squared "
+                    f"error it removed at N = {base.N} and leaves {_um(_error(fk))} there: the selection runs "
+                    f"again at N = {Nf}")
+                sel = _select(dataset, base.replace(N=Nf), ctx, ff, pool, raised + [step], None, rounds, refits,
+                              holdout, executor, say)
+                reselect = _reselect_record(step, fk, sel[2], sel[3])
+                windows, trends = sel[7], sel[8]      # the baseline's at the finer N, either way
+                if reselect["kept"] == "second":
+                    base, f0, kept, current, before, raised, fine, _, _, taken = sel
+                    say(f"the selection at N = {Nf} is taken: {' + '.join(e.key for e in kept) or 'nothing'} "
+                        f"({_um(_error(current))} against {_um(_error(fk))})")
+                else:              # the first selection's entries, refitted at the finer N, fit better
+                    base, f0, current, before, raised = base.replace(N=Nf), ff, fk, None, raised + [step]
+                    fine = None
+                    say(f"{' + '.join(e.key for e in kept)} at N = {Nf} fits better than the selection run there: "
+                        f"it stands ({_um(_error(fk))})")
+                chain = list(kept)
+        if any(e.kind == "physics" for e in kept):
+            kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
+                                                         say, fine, before, refits,
+                                                         RAISE_MAX + CHECK_EXTRA - len(raised))
+        current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
+        current, f0, trained = _raise_training(dataset, ctx, kept, current, f0, holdout, executor, refits, say)
+        raised = raised + trained
+        current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
+        calibration = _calibration(dataset, current, executor, say)
+        account = gain_account(dataset, ctx, kept, current, holdout, executor, say)
+        own_error = self_check(dataset, current, executor, say)
+        final_windows = locate(dataset, current) if current is not f0 else None
+        return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
+                         final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
+                         raised=raised, suggested=suggested, cold=cold, taken=taken, reselect=reselect,
+                         calibration=calibration, values_in_N=values, gain_account=account,
+                         self_error=own_error)
     except BaseException:
         if own:                  # Ctrl-C or an error: the workers' runs are not waited for
             stop_pool(executor)
@@ -180,71 +225,6 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
     finally:
         if own:
             executor.shutdown()
-
-
-def _diagnose(dataset, executor, say, holdout, candidates, wall) -> Diagnosis:
-    """diagnose's selection and checks on `dataset` at its nominal N (the executor owned by
-    the caller; wall: when the diagnosis began)."""
-    base = dataset.params
-    ctx = Context.of(dataset)
-    say("baseline fit (rho_l)")
-    f0 = fit(dataset, baseline_spec(base, ctx), base=base, holdout=holdout, executor=executor)
-    base, f0, raised, fine = _resolve(dataset, base, ctx, f0, holdout, executor, say)
-    # where the field laws also start: each training voltage's own level (levels.py)
-    ctx = replace(ctx, levels=voltage_levels(dataset, f0, ctx, executor))
-    say(f"baseline: train RMSE {f0.train_rmse * 1e6:.3g} um, held out {_um(f0.heldout_rmse)}; locating")
-    pool = list(candidates) if candidates is not None else PHYSICS + NOMINAL
-    rounds, refits = [], []     # (a fit, its refit at fine_N) made on the way (_raise_kept)
-    base, f0, kept, current, before, raised, fine, windows, trends, taken = _select(
-        dataset, base, ctx, f0, pool, raised, fine, rounds, refits, holdout, executor, say)
-    resolution, chain, unverified, suggested, reselect = None, list(kept), [], None, None
-    if kept and not f0.heldout:
-        # nothing held out: the rounds' choices rest on the training data alone (a BIC can
-        # always be lowered by a parameter that bends the model to one condition): they are
-        # suggestions, the final model stays the baseline
-        unverified, suggested, kept, current = list(kept), current, [], f0
-        say(f"nothing held out: {', '.join(e.key for e in unverified)} not applied (unverified suggestions)")
-    if any(e.kind == "physics" for e in kept):
-        ff, fk, due = _reselect_due(dataset, base, ctx, kept, current, f0, holdout, executor, refits, fine,
-                                    RAISE_MAX - len(raised))
-        fine = ff if ff is not None else fine
-        if due:
-            step = _reselect_step(base, kept, current, f0, ff, fk)
-            Nf = ff.params.N
-            say(f"{' + '.join(e.key for e in kept)} removed at N = {Nf} {step['cut_ratio']:.0%} of the squared "
-                f"error it removed at N = {base.N} and leaves {_um(_error(fk))} there: the selection runs "
-                f"again at N = {Nf}")
-            sel = _select(dataset, base.replace(N=Nf), ctx, ff, pool, raised + [step], None, rounds, refits,
-                          holdout, executor, say)
-            reselect = _reselect_record(step, fk, sel[2], sel[3])
-            windows, trends = sel[7], sel[8]      # the baseline's at the finer N, either way
-            if reselect["kept"] == "second":
-                base, f0, kept, current, before, raised, fine, _, _, taken = sel
-                say(f"the selection at N = {Nf} is taken: {' + '.join(e.key for e in kept) or 'nothing'} "
-                    f"({_um(_error(current))} against {_um(_error(fk))})")
-            else:              # the first selection's entries, refitted at the finer N, fit better
-                base, f0, current, before, raised = base.replace(N=Nf), ff, fk, None, raised + [step]
-                fine = None
-                say(f"{' + '.join(e.key for e in kept)} at N = {Nf} fits better than the selection run there: "
-                    f"it stands ({_um(_error(fk))})")
-            chain = list(kept)
-    if any(e.kind == "physics" for e in kept):
-        kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
-                                                     say, fine, before, refits,
-                                                     RAISE_MAX + CHECK_EXTRA - len(raised))
-    current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
-    current, f0, trained = _raise_training(dataset, ctx, kept, current, f0, holdout, executor, refits, say)
-    raised = raised + trained
-    current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
-    calibration = _calibration(dataset, current, executor, say)
-    account = gain_account(dataset, ctx, kept, current, holdout, executor, say)
-    own_error = self_check(dataset, current, executor, say)
-    final_windows = locate(dataset, current) if current is not f0 else None
-    return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
-                     final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
-                     raised=raised, suggested=suggested, cold=cold, taken=taken, reselect=reselect,
-                     calibration=calibration, values_in_N=values, gain_account=account,
-                     self_error=own_error)
 
 
 def _calibration(dataset, f, executor, say) -> dict | None:

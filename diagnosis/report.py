@@ -83,7 +83,6 @@ def to_json(D) -> dict:
         "heldout_common_gain": getattr(D, "calibration", None),
         "gain_account": getattr(D, "gain_account", None),
         "self_error": getattr(D, "self_error", None),
-        "diagnosed_again": getattr(D, "again", None),
         "drive_timing": drive_timing(D) or None,
         "monitor_gain": monitor_gain(D) or None,
         "zeros_fitted": zeros_fitted(D) or None,
@@ -218,8 +217,6 @@ def conclusion(D) -> str:
         parts.append(gain_account_phrase(D))
     if self_error_phrase(D):
         parts.append(self_error_phrase(D))
-    if again_phrase(D):
-        parts.append(again_phrase(D))
     parts += raised_phrases(D.raised)
     if reselect_phrase(D):
         parts.append(reselect_phrase(D))
@@ -302,18 +299,6 @@ def self_error_phrase(D) -> str | None:
     return (f"the final model is {s['rmse'] * 1e6:.3g} um off its own solution at N = {s['N_ref']} at its fitted values "
             f"(N = {s['N']}, {s['ratio']:.1f}x the sensor noise{fine}): its values carry the grid's bias - "
             f"diagnose again with a finer N in the dataset's actuator file (self_error)")
-
-
-def again_phrase(D) -> str | None:
-    """Why the diagnosis ran again at a finer N (diagnose, self_error.again_N)."""
-    a = getattr(D, "again", None)
-    if not a:
-        return None
-    s = a["self_error"]
-    what = " + ".join(a["missing_physics"]) or "the baseline"
-    return (f"diagnosed again at N = {a['N_again']} (the dataset's {a['N_nominal']}): the first run's final model ("
-            f"{what} at N = {a['N_final']}) was {s['rmse'] * 1e6:.3g} um off its own solution at N = {s['N_ref']}, "
-            f"{s['ratio']:.1f}x the sensor noise (diagnosed_again)")
 
 
 def gain_account_phrase(D) -> str | None:

@@ -14,11 +14,7 @@ No data enter here: the final model is run at its N and at SELF_REF times its el
 (its training recordings, each with its own resistivity factor and timing; one batch each)
 and the RMS difference of the strokes is its own error. At SELF_TOL sensor noises or more
 the report says so - the named values carry the grid's bias - and how far it falls at
-twice the elements. At SELF_AGAIN noises or more the whole diagnosis runs again at the
-finer N where the error, falling at its measured rate per doubling, is within SELF_TOL
-noises (again_N; at most SELF_N_MAX times the nominal N, once): on the branch above, at
-N = 161 it named the branch alone, chi_p 0.226 -> 0.237 and tau_p 0.543 -> 0.555 s at N =
-321 -> 641 (truth 0.238, 0.556 s), held out 1.82 um (1.0 noise), in 95 s.
+twice the elements. The verdict is not changed here.
 """
 from __future__ import annotations
 
@@ -29,26 +25,6 @@ from .rules import _um, fine_N
 
 SELF_REF = 4     # the reference: two doublings finer (the continuum scheme's error falls ~4x per doubling)
 SELF_TOL = 1.0   # the model's own error, in sensor noises, from which the report says so
-SELF_AGAIN = 2.0  # ... and from which the diagnosis runs again at a finer N (again_N)
-SELF_N_MAX = 8    # ... at most this many times the dataset's nominal N (as the value check)
-
-
-def again_N(rec, nominal_N: int, sigma: float) -> int | None:
-    """The N the diagnosis runs again at (module docstring): the first doubling where the
-    error, falling at its measured rate, is within SELF_TOL noises, else the finest within
-    SELF_N_MAX times the nominal N; None when the final model's own error (self_check's
-    record) is below SELF_AGAIN noises, was not measured at twice its elements, does not
-    fall, or no finer N is allowed."""
-    if not rec or rec["rmse"] < SELF_AGAIN * sigma or rec.get("rmse_fine") is None:
-        return None
-    q = rec["rmse_fine"] / rec["rmse"]
-    if not q < 1.0:
-        return None
-    n_max = SELF_N_MAX * (nominal_N - 1) + 1
-    N, e = fine_N(rec["N"]), rec["rmse_fine"]
-    while e > SELF_TOL * sigma and fine_N(N) <= n_max:
-        N, e = fine_N(N), e * q
-    return N if N <= n_max else None
 
 
 def self_check(dataset, final, executor, say) -> dict | None:
