@@ -168,7 +168,8 @@ def write_protocols(D, out: Path) -> dict:
 
 NOTHING_KEPT = "(nothing kept)"   # a Diagnosis.raised step's `after` when the rounds kept nothing (resolution last)
 RESELECTED = "(selection run again)"   # ... when the kept set's cut shrank at the finer N (resolution._reselect_due)
-TRAINING = "(training error)"   # ... when the final model's training error fell at the finer N (resolution._raise_training)
+# ... when the final model's training error fell at the finer N (resolution._raise_training)
+TRAINING = "(training error)"
 
 
 def raised_phrases(raised: list) -> list:

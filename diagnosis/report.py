@@ -296,8 +296,8 @@ def self_error_phrase(D) -> str | None:
     if not s or not s["flagged"]:
         return None
     fine = (f", {s['rmse_fine'] * 1e6:.3g} um at N = {s['N_fine']}" if s.get("rmse_fine") is not None else "")
-    return (f"the final model is {s['rmse'] * 1e6:.3g} um off its own solution at N = {s['N_ref']} at its fitted values "
-            f"(N = {s['N']}, {s['ratio']:.1f}x the sensor noise{fine}): its values carry the grid's bias - "
+    return (f"the final model is {s['rmse'] * 1e6:.3g} um off its own solution at N = {s['N_ref']} at its fitted "
+            f"values (N = {s['N']}, {s['ratio']:.1f}x the sensor noise{fine}): its values carry the grid's bias - "
             f"diagnose again with a finer N in the dataset's actuator file, unless the data were made by this "
             f"model at N = {s['N']} (self_error)")
 

@@ -157,7 +157,8 @@ def test_one_gauss_newton_step_predicts_a_refit_at_twice_the_elements(tmp_path):
     pk = f.params.replace(N=21)
     g = fit(ds, _spec(pk, ctx, [BRANCH]), base=pk, holdout=[], warm=f, max_nfev=12)
     pred, real = pr["fit"].values["chi_p"] - f.values["chi_p"], g.values["chi_p"] - f.values["chi_p"]
-    print(f"\nchi_p {f.values['chi_p']:.4g} -> predicted {pr['fit'].values['chi_p']:.4g}, refit {g.values['chi_p']:.4g}; "
+    print(f"\nchi_p {f.values['chi_p']:.4g} -> predicted {pr['fit'].values['chi_p']:.4g}, "
+          f"refit {g.values['chi_p']:.4g}; "
           f"cost {f.cost:.0f} at N = 21 {pr['cost_at']:.0f} step {pr['cost_step']:.0f} refit {g.cost:.0f}")
     assert abs(real) > 10 * f.stderr["chi_p"]                    # the premise: the model's own N moves it
     assert 0.6 < pred / real < 1.4

@@ -46,7 +46,8 @@ def test_a_coarse_branch_is_far_from_its_own_continuum_and_the_plain_model_is_no
     e0 = self_error(ds, f0, 81)
     en = self_error(ds, replace(f0, params=f0.params.replace(rho_l=2e12)), 81)
     print(f"\nplain rho_l {f0.params.rho_l:.3g}: {e0 * 1e6:.2f}; at 2e12 {en * 1e6:.2f}")
-    print(f"\nbranch chi_p {fb.params.chi_p:.3g}: {e21 * 1e6:.2f} um at 21, {e41 * 1e6:.2f} at 41; plain {e0 * 1e6:.2f} um; "
+    print(f"\nbranch chi_p {fb.params.chi_p:.3g}: {e21 * 1e6:.2f} um at 21, {e41 * 1e6:.2f} at 41; "
+          f"plain {e0 * 1e6:.2f} um; "
           f"noise {fb.sigma * 1e6:.2f}")
     assert e21 > 2 * fb.sigma and e41 < 0.7 * e21 and en < 0.5 * fb.sigma and e0 > fb.sigma
     rec = self_check(ds, fb, None, lambda s: None)
