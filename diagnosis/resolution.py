@@ -431,16 +431,13 @@ def _raise_training(dataset, ctx, kept, current, f0, holdout, executor, refits, 
         Nf = fine_N(current.params.N)
         if u is None or u[1] != "training" or Nf > n_max:
             break
-        g = _refit_of(refits, current, Nf)
-        if g is None:
+        kf = _KeptFine(dataset, current.params.replace(N=Nf), ctx, kept, current, holdout, executor, refits)
+        if not kf.fitted:
             say(f"the final model leaves {_um(current.train_rmse)} in training: refitted at N = {Nf}")
-            pk = current.params.replace(N=Nf)
-            try:
-                g = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor, warm=current,
-                        max_nfev=RES_NFEV)
-            except Exception:          # the finer model cannot run: the verdict stands at N
-                break
-            refits.append((current, g))
+        try:
+            g = kf.fit()
+        except Exception:              # the finer model cannot run: the verdict stands at N
+            break
         held_ok = g.heldout_rmse is None or g.heldout_rmse <= RES_WORSE * current.heldout_rmse
         if not (g.train_rmse < RAISE_GAIN * current.train_rmse and held_ok):
             break

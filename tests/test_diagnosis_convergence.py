@@ -8,6 +8,7 @@ import pytest
 
 from dfa_model import preset
 from diagnosis import convergence as cv
+from diagnosis import resolution as rs     # the refits go through resolution._KeptFine
 from diagnosis.catalog import PHYSICS
 
 BRANCH = next(e for e in PHYSICS if e.key == "polarization_branch")
@@ -32,7 +33,7 @@ def _run(monkeypatch, by_N, nominal_N=21):
     def fine_N_of(N):
         return (N - 1) // 2 + 1
 
-    monkeypatch.setattr(cv, "fit", fake_fit)
+    monkeypatch.setattr(rs, "fit", fake_fit)
     ds = NS(params=preset("vshape-table1").replace(N=nominal_N))
     final, rec = cv.value_check(ds, None, [BRANCH], by_N[nominal_N], [], None, None, lambda s: None)
     return final, rec, made
@@ -76,7 +77,7 @@ def test_a_finer_refit_that_fits_the_training_data_worse_is_not_taken(monkeypatc
 
 
 def test_nothing_physical_kept_is_not_followed(monkeypatch):
-    monkeypatch.setattr(cv, "fit", lambda *a, **k: pytest.fail("no refit expected"))
+    monkeypatch.setattr(rs, "fit", lambda *a, **k: pytest.fail("no refit expected"))
     f = _fit(21, 0.0, 0.1)
     nominal = NS(kind="nominal", key="nominal:t_lz", shows=(), spec=lambda p, ctx: [])
     assert cv.value_check(NS(params=f.params), None, [nominal], f, [], None, None, print) == (f, None)
