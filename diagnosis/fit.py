@@ -716,19 +716,14 @@ def predicted_refit(dataset, fr: FitResult, params: Parameters, executor=None) -
     """What a refit of fr at `params` (its values at another N, say) would give, from one
     Gauss-Newton step: fr's training recordings run at params with fr's own nuisances (one
     run each, in one batch), and the step that fr's Jacobian (lsq J, at its solution) gives
-    against those residuals. Returns {z (the spec's coordinates after the step), fit (a
-    FitResult of fr's spec at them, fr's errors: model_values carries them), cost_at (the
-    cost at fr's values there), cost_step (the step's linear prediction), train_rmse_at (the
-    training RMSE at fr's values there, every sample), runs}; None without fr's Jacobian.
-    The step lies within fr's bounds (clipped)."""
+    against those residuals. Returns {fit (a FitResult of fr's spec at the step's
+    coordinates, fit.z; fr's errors: model_values carries them), cost_at (the cost at fr's
+    values there), cost_step (the step's linear prediction), runs}; None without fr's
+    Jacobian. The step lies within fr's bounds (clipped)."""
     if not fr.lsq or "J" not in fr.lsq:
         return None
-    by = {r.name: r for r in dataset.recordings}
-    train = [by[n] for n in fr.train]
     lsq, k = fr.lsq, len(fr.spec)
-    runner = Runner(executor)
-    prob = Problem(train, runner, fr.sigma, lsq["sigma_rep"], lsq["decimate"], lsq["pin"])
-    deltas, tz = lsq["deltas"], (lsq["tz"] if len(lsq["tz"]) else None)
+    prob, deltas, tz = _train_problem(dataset, fr, executor, lsq["pin"])
     with threadpool_limits(1):      # the step's least squares too (one_blas_thread)
         xs = prob.runs(params, deltas, tz=tz)
         if any(isinstance(x, str) for x in xs):
@@ -748,32 +743,46 @@ def predicted_refit(dataset, fr: FitResult, params: Parameters, executor=None) -
                 stderr={f.key: (f.from_z(z[i]) * fr.stderr[f.key] / max(abs(fr.values[f.key]), 1e-300) if f.log
                                 else fr.stderr[f.key]) for i, f in enumerate(fr.spec)},
                 notes=[f"predicted at N = {params.N} by one Gauss-Newton step from the fit at N = {fr.params.N}"])
-    rmse = _aligned(train, xs, [], [], fr.sigma, "the model does not run")[3]
-    return {"z": z, "fit": g, "cost_at": 0.5 * float(r @ r), "cost_step": 0.5 * float(r_step @ r_step),
-            "train_rmse_at": rmse, "runs": runner.runs}
+    return {"fit": g, "cost_at": 0.5 * float(r @ r), "cost_step": 0.5 * float(r_step @ r_step),
+            "runs": prob.runner.runs}
+
+
+def _train_problem(dataset, fr: FitResult, executor, pin) -> tuple:
+    """(Problem of fr's training recordings, their log resistivity factors, their drives'
+    flat timing or None) as fr's search left them (its lsq record)."""
+    by = {r.name: r for r in dataset.recordings}
+    lsq = fr.lsq
+    prob = Problem([by[n] for n in fr.train], Runner(executor), fr.sigma, lsq["sigma_rep"], lsq["decimate"], pin)
+    return prob, lsq["deltas"], (lsq["tz"] if len(lsq["tz"]) else None)
+
+
+def model_strokes(dataset, fr: FitResult, Ns, executor=None) -> list | None:
+    """fr's model at its fitted values and each of the elements `Ns`: for each N, the
+    strokes at every sample of fr's training recordings (each with its own resistivity
+    factor and drive timing), all in one batch - no data enter. None when a run fails or
+    fr has no fit record."""
+    if not fr.lsq:
+        return None
+    prob, deltas, tz = _train_problem(dataset, fr, executor, False)
+    with threadpool_limits(1):
+        runs = prob.runner([j for N in Ns for j in prob.jobs(fr.params.replace(N=N), deltas, tz=tz)])
+    if any(isinstance(x, str) for x in runs):
+        return None
+    R = prob.R
+    return [[x[0] for x in runs[i * R:(i + 1) * R]] for i in range(len(Ns))]     # row 0: the stroke (_run)
+
+
+def stroke_rms(a, b) -> float:
+    """The RMS difference of two model_strokes lists (m, over every sample)."""
+    return math.sqrt(sum(float(np.sum((x - y) ** 2)) for x, y in zip(a, b)) / sum(x.size for x in a))
 
 
 def self_error(dataset, fr: FitResult, N_ref: int, executor=None) -> float | None:
     """The model's own discretization error at fr's fitted values: the RMS difference (m,
-    over every sample of the training recordings, each with its own resistivity factor and
-    drive timing) between fr's model at its N and the same model at N_ref - no data
-    enter. None when a run fails or fr has no fit record."""
-    if not fr.lsq:
-        return None
-    by = {r.name: r for r in dataset.recordings}
-    train = [by[n] for n in fr.train]
-    lsq = fr.lsq
-    runner = Runner(executor)
-    prob = Problem(train, runner, fr.sigma, lsq["sigma_rep"], lsq["decimate"], False)
-    tz = lsq["tz"] if len(lsq["tz"]) else None
-    with threadpool_limits(1):
-        runs = runner(prob.jobs(fr.params, lsq["deltas"], tz=tz) + prob.jobs(fr.params.replace(N=N_ref), lsq["deltas"],
-                                                                              tz=tz))
-    if any(isinstance(x, str) for x in runs):
-        return None
-    a, b = runs[:len(train)], runs[len(train):]
-    sq = sum(float(np.sum((x[0] - y[0]) ** 2)) for x, y in zip(a, b))     # row 0: the stroke (_run)
-    return math.sqrt(sq / sum(x.shape[1] for x in a))
+    model_strokes) between fr's model at its N and the same model at N_ref. None when a
+    run fails or fr has no fit record."""
+    s = model_strokes(dataset, fr, [fr.params.N, N_ref], executor)
+    return None if s is None else stroke_rms(*s)
 
 
 def heldout_common_gain(dataset, fr: FitResult, executor=None, max_nfev=40) -> dict | None:

@@ -18,9 +18,7 @@ twice the elements. The verdict is not changed here.
 """
 from __future__ import annotations
 
-from dataclasses import replace
-
-from .fit import self_error
+from .fit import model_strokes, stroke_rms
 from .rules import _um, fine_N
 
 SELF_REF = 4     # the reference: two doublings finer (the continuum scheme's error falls ~4x per doubling)
@@ -34,17 +32,20 @@ def self_check(dataset, final, executor, say) -> dict | None:
     N = final.params.N
     N_ref = SELF_REF * (N - 1) + 1
     try:
-        e = self_error(dataset, final, N_ref, executor)
+        strokes = model_strokes(dataset, final, [N, N_ref], executor)
     except Exception:            # a second account only
         return None
-    if e is None:
+    if strokes is None:
         return None
+    here, ref = strokes
+    e = stroke_rms(here, ref)
     out = {"N": N, "N_ref": N_ref, "rmse": e, "ratio": e / final.sigma, "flagged": e >= SELF_TOL * final.sigma}
     if out["flagged"]:
-        try:
-            ef = self_error(dataset, replace(final, params=final.params.replace(N=fine_N(N))), N_ref, executor)
+        try:             # against the same reference runs
+            fine = model_strokes(dataset, final, [fine_N(N)], executor)
         except Exception:
-            ef = None
+            fine = None
+        ef = None if fine is None else stroke_rms(fine[0], ref)
         out.update(N_fine=fine_N(N), rmse_fine=ef)
         say(f"the final model's own discretization error at its values: {_um(e)} at N = {N} against N = {N_ref} "
             f"({out['ratio']:.1f}x the noise)" + (f", {_um(ef)} at N = {fine_N(N)}" if ef is not None else ""))
