@@ -785,6 +785,19 @@ def self_error(dataset, fr: FitResult, N_ref: int, executor=None) -> float | Non
     return None if s is None else stroke_rms(*s)
 
 
+def condition_gains(recs, gains: dict) -> list:
+    """Each condition's monitors' common gain, from the recordings' own gains ({name:
+    gain}, those of recs that have one): [{voltage, force, gain (their mean), prior_sd (the
+    per-recording prior on the mean of n: GAIN_PRIOR / sqrt(n))}], in the order the
+    conditions first appear."""
+    by = {}
+    for r in recs:
+        if r.name in gains:
+            by.setdefault(r.condition(), []).append(gains[r.name])
+    return [{"voltage": c[0], "force": c[1], "gain": float(np.mean(v)), "prior_sd": GAIN_PRIOR / math.sqrt(len(v))}
+            for c, v in by.items()]
+
+
 def heldout_common_gain(dataset, fr: FitResult, executor=None, max_nfev=40) -> dict | None:
     """fr's held-out recordings fitted again with fr's physics, their nuisances as before
     and each held-out condition's monitors' common gain free as well (timing.gains with
@@ -818,9 +831,7 @@ def heldout_common_gain(dataset, fr: FitResult, executor=None, max_nfev=40) -> d
     (_, _, xs0), (sol, prob, xs) = out
     timing = prob.timing(sol.x[len(held):])
     gains = {r.name: tm["gain"] for r, tm in zip(held, timing) if "gain" in tm}
-    conditions = [{"voltage": held[js[0]].condition()[0], "force": held[js[0]].condition()[1],
-                   "gain": float(np.mean([gains[held[j].name] for j in js])),
-                   "prior_sd": GAIN_PRIOR / math.sqrt(len(js))} for js, _ in groups]
+    conditions = condition_gains(held, gains)
     return {"rmse": rmse(xs), "rmse_without": rmse(xs0), "gains": gains, "conditions": conditions,
             "converged": bool(out[0][0].success and sol.success), "runs": runner.runs}
 

@@ -15,7 +15,7 @@ the conditions' common gains (1.866 um against 1.869 um).
 
 So where a stiffness is kept, the final model without it is refitted on the training
 recordings with each condition's common gain free as well (fit(common_gain=True), the same
-per-recording prior GAIN_PRIOR, warm from the final model): when it fits the training
+per-recording prior timing.GAIN_PRIOR, warm from the final model): when it fits the training
 recordings about as well (SAME_FIT) with every condition's common gain within PRIOR_SDS
 prior SDs, the recordings cannot tell the stiffness from the monitors' calibration. The
 verdict stands - the stiffness is what the model, with its gains as contrasts, needs - but
@@ -24,14 +24,10 @@ refitted: its common gain fitted on its own recordings would not be a held-out t
 """
 from __future__ import annotations
 
-import math
 import time
 
-import numpy as np
-
-from .fit import fit
+from .fit import condition_gains, fit
 from .rules import RES_NFEV, _spec, _um
-from .timing import GAIN_PRIOR
 
 ENTRIES = ("stiffness",)   # kept entries a condition's common monitor gain can stand in for
 SAME_FIT = 1.02            # the gains' account fits as well: training RMSE within this share of the kept model's
@@ -49,8 +45,8 @@ def gain_account(dataset, ctx, kept, current, holdout, executor, say) -> dict | 
     if not stand_in or not current.train:
         return None
     rest = [e for e in kept if e not in stand_in]
-    p = current.params.replace(**{k: getattr(dataset.params, k) for e in stand_in
-                                  for k in [fp.key for fp in e.spec(current.params, ctx)]})
+    p = current.params.replace(**{fp.key: getattr(dataset.params, fp.key) for e in stand_in
+                                  for fp in e.spec(current.params, ctx)})
     names = " + ".join(e.key for e in stand_in)
     say(f"{names} against the monitors' calibration: the final model without it, each condition's common gain free "
         f"(N = {p.N})")
@@ -61,12 +57,9 @@ def gain_account(dataset, ctx, kept, current, holdout, executor, say) -> dict | 
     except Exception as exc:        # a second account only: the verdict stands without it
         say(f"the monitors' common gains could not be fitted ({type(exc).__name__}: {exc})")
         return {"entries": [e.key for e in stand_in], "error": f"{type(exc).__name__}: {exc}"}
-    by = {}
-    for r in dataset.recordings:
-        if r.name in g.timing and "gain" in g.timing[r.name]:
-            by.setdefault(r.condition(), []).append(g.timing[r.name]["gain"])
-    conditions = [{"voltage": c[0], "force": c[1], "gain": float(np.mean(v)),
-                   "prior_sd": GAIN_PRIOR / math.sqrt(len(v))} for c, v in sorted(by.items())]
+    conditions = sorted(condition_gains(dataset.recordings, {n: tm["gain"] for n, tm in g.timing.items()
+                                                             if "gain" in tm}),
+                        key=lambda c: (c["voltage"], c["force"]))
     within = bool(conditions) and all(abs(c["gain"]) <= PRIOR_SDS * c["prior_sd"] for c in conditions)
     same = g.train_rmse <= SAME_FIT * current.train_rmse
     out = {"entries": [e.key for e in stand_in], "N": p.N, "train_rmse": g.train_rmse,

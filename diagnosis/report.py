@@ -9,6 +9,7 @@ import numpy as np
 
 from dfa_model.io.fileio import write_atomic, write_text_atomic
 
+from .gain_account import PRIOR_SDS
 from .improved import entry_parameters, raised_phrases, write_improved, write_protocols
 from .levels import LEVEL_STEPS
 from .rules import STRONG_ERROR, UNEXPLAINED
@@ -213,10 +214,10 @@ def conclusion(D) -> str:
         parts.append("no missing physics verified")
     else:
         parts.append("no missing physics found")
-    if gain_account_phrase(D):
-        parts.append(gain_account_phrase(D))
-    if self_error_phrase(D):
-        parts.append(self_error_phrase(D))
+    if (gp := gain_account_phrase(D)):
+        parts.append(gp)
+    if (sp := self_error_phrase(D)):
+        parts.append(sp)
     parts += raised_phrases(D.raised)
     if reselect_phrase(D):
         parts.append(reselect_phrase(D))
@@ -337,7 +338,7 @@ def gain_account_lines(a) -> list:
           "| condition | common gain | prior SD |", "|---|---|---|"]
     L += [f"| {c['voltage'] / 1e3:.3g} kV, {c['force']:.3g} N | {c['gain']:+.3%} | {c['prior_sd']:.2%} |"
           for c in a["conditions"]]
-    why = " (they fit the training recordings worse)" if not a["fits_as_well"] else " (beyond 2 prior SDs)"
+    why = " (they fit the training recordings worse)" if not a["fits_as_well"] else f" (beyond {PRIOR_SDS:g} prior SDs)"
     verdict = ("The recordings cannot tell the two apart: calibrate the monitors to better than the gains above, or "
                "record more conditions." if not a["separable"] else f"The gains do not stand in for it{why}: {which} "
                "stands.")

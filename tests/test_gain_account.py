@@ -20,6 +20,7 @@ from diagnosis.catalog import PHYSICS, Context, baseline_spec
 from diagnosis.fit import fit
 from diagnosis.report import gain_account_lines, gain_account_phrase
 from diagnosis.rules import _prepared
+from diagnosis.timing import GAIN_PRIOR
 
 STIFFNESS = next(e for e in PHYSICS if e.key == "stiffness")
 INERTIA = next(e for e in PHYSICS if e.key == "inertia")
@@ -120,7 +121,7 @@ def test_the_account_runs_only_where_a_stiffness_is_kept_and_keeps_the_rest(monk
     assert base.k == 0.0 and base.m == 0.02 and base.N == N             # the stiffness out, inertia as fitted
     assert [fp.key for fp in spec][-1] == "m" and "k" not in [fp.key for fp in spec]
     assert kw["warm"] is final and kw["common_gain"] and not kw["held_out"]
-    assert a["conditions"] == [{"voltage": 6000.0, "force": 3.0, "gain": 0.001, "prior_sd": ga.GAIN_PRIOR}]
+    assert a["conditions"] == [{"voltage": 6000.0, "force": 3.0, "gain": 0.001, "prior_sd": GAIN_PRIOR}]
     assert not a["separable"]
 
     def failing(*a, **k):
