@@ -636,11 +636,17 @@ def plot_terms(D, path) -> bool:
             ax.set_xticks(range(len(pars)), list(pars))
             ax.set_title(e.name, fontsize=9)
     v = getattr(D, "values_in_N", None)
+    s = getattr(D, "self_error", None)
+    note = None
+    # the bands are the fit's statistical errors: they say nothing of the values' move with N,
+    # nor of the grid's bias the model's own error puts in them
     if v and not v["converged"] and not v.get("finer_worse") and len(v["steps"]) > 1:
-        # the bands are the fit's statistical errors: they say nothing of the values' move with N
-        Ns = ", ".join(str(st["N"]) for st in v["steps"])
-        fig.text(0.5, 0.01, f"values not settled in N (fitted at N = {Ns}; values_in_N):\n"
-                 f"the bands are the fit's statistical errors only", ha="center", fontsize=7)
+        note = f"values not settled in N (fitted at N = {', '.join(str(st['N']) for st in v['steps'])}; values_in_N)"
+    elif s and s["flagged"]:
+        note = (f"the model at N = {s['N']} is {s['rmse'] * 1e6:.3g} um off its own solution at N = {s['N_ref']} "
+                f"({s['ratio']:.1f}x the noise; self_error): the values carry the grid's bias")
+    if note:
+        fig.text(0.5, 0.01, note + ":\nthe bands are the fit's statistical errors only", ha="center", fontsize=7)
         fig.tight_layout(rect=(0, 0.09, 1, 1))
     else:
         fig.tight_layout()
