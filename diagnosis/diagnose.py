@@ -29,7 +29,11 @@ catalog and the nominal values.
    the finer N (_reselect_due): the coarse N may have chosen the entry; the lower BIC
    there decides between the two selections. The kept entries' values must settle in N
    as well (convergence.value_check): refitted at twice the elements while they move by
-   more than VALUE_TOL, the finest refit then being the final model.
+   more than VALUE_TOL, the finest refit then being the final model. Last, the final
+   model's own discretization error at its values (self_error.py): 2 noises or more off
+   its own solution while it does not reach the noise, the diagnosis runs again at the
+   finer N among the entries it named, every cap counted from the nominal N, and the run
+   that fits better stands (_again).
 5. Nothing held out (a single condition, or a holdout of none): the rounds still run, on
    the training data alone (BIC), but what they keep is never applied - no nominal value
    is corrected and no physics named without held-out evidence. The entries are the
@@ -52,14 +56,18 @@ from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .convergence import value_check
 from .fit import fit, heldout_common_gain, local_executor
 from .gain_account import gain_account
-from .self_error import self_check
+from .improved import again_steps
+from .self_error import again_N, self_check
 from .levels import voltage_levels
 from .locate import locate
 from .resolution import (
     _raise_training, _reselect_due, _reselect_record, _reselect_step, _resolution_check, _resolve,
 )
 from .rounds import _select
-from .rules import CANDIDATE_NFEV, CHECK_EXTRA, RAISE_MAX, RES_BETTER, UNEXPLAINED, _error, _spec, _um, _unexplained
+from .rules import (
+    CANDIDATE_NFEV, CHECK_EXTRA, RAISE_MAX, RES_BETTER, RES_WORSE, UNEXPLAINED, _error, _spec, _um, _unexplained,
+    _worst_error,
+)
 
 
 @dataclass
@@ -89,6 +97,7 @@ class Diagnosis:
     # a kept stiffness against the training conditions' monitors' common gains (gain_account.py)
     gain_account: dict | None = None
     self_error: dict | None = None             # the final model's own discretization error (self_error.py)
+    again: dict | None = None                  # both runs when the diagnosis ran again at a finer N (_again)
     values_in_N: dict | None = None            # the kept entries' values over doublings of N (convergence.py)
 
     @property
@@ -157,66 +166,10 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
     if own:
         executor = local_executor()
     try:
-        base = dataset.params
-        ctx = Context.of(dataset)
-        say("baseline fit (rho_l)")
-        f0 = fit(dataset, baseline_spec(base, ctx), base=base, holdout=holdout, executor=executor)
-        base, f0, raised, fine = _resolve(dataset, base, ctx, f0, holdout, executor, say)
-        # where the field laws also start: each training voltage's own level (levels.py)
-        ctx = replace(ctx, levels=voltage_levels(dataset, f0, ctx, executor))
-        say(f"baseline: train RMSE {f0.train_rmse * 1e6:.3g} um, held out {_um(f0.heldout_rmse)}; locating")
         pool = list(candidates) if candidates is not None else PHYSICS + NOMINAL
-        rounds, refits = [], []     # (a fit, its refit at fine_N) made on the way (_raise_kept)
-        base, f0, kept, current, before, raised, fine, windows, trends, taken = _select(
-            dataset, base, ctx, f0, pool, raised, fine, rounds, refits, holdout, executor, say)
-        resolution, chain, unverified, suggested, reselect = None, list(kept), [], None, None
-        if kept and not f0.heldout:
-            # nothing held out: the rounds' choices rest on the training data alone (a BIC can
-            # always be lowered by a parameter that bends the model to one condition): they are
-            # suggestions, the final model stays the baseline
-            unverified, suggested, kept, current = list(kept), current, [], f0
-            say(f"nothing held out: {', '.join(e.key for e in unverified)} not applied (unverified suggestions)")
-        if any(e.kind == "physics" for e in kept):
-            ff, fk, due = _reselect_due(dataset, base, ctx, kept, current, f0, holdout, executor, refits, fine,
-                                        RAISE_MAX - len(raised))
-            fine = ff if ff is not None else fine
-            if due:
-                step = _reselect_step(base, kept, current, f0, ff, fk)
-                Nf = ff.params.N
-                say(f"{' + '.join(e.key for e in kept)} removed at N = {Nf} {step['cut_ratio']:.0%} of the squared "
-                    f"error it removed at N = {base.N} and leaves {_um(_error(fk))} there: the selection runs "
-                    f"again at N = {Nf}")
-                sel = _select(dataset, base.replace(N=Nf), ctx, ff, pool, raised + [step], None, rounds, refits,
-                              holdout, executor, say)
-                reselect = _reselect_record(step, fk, sel[2], sel[3])
-                windows, trends = sel[7], sel[8]      # the baseline's at the finer N, either way
-                if reselect["kept"] == "second":
-                    base, f0, kept, current, before, raised, fine, _, _, taken = sel
-                    say(f"the selection at N = {Nf} is taken: {' + '.join(e.key for e in kept) or 'nothing'} "
-                        f"({_um(_error(current))} against {_um(_error(fk))})")
-                else:              # the first selection's entries, refitted at the finer N, fit better
-                    base, f0, current, before, raised = base.replace(N=Nf), ff, fk, None, raised + [step]
-                    fine = None
-                    say(f"{' + '.join(e.key for e in kept)} at N = {Nf} fits better than the selection run there: "
-                        f"it stands ({_um(_error(fk))})")
-                chain = list(kept)
-        if any(e.kind == "physics" for e in kept):
-            kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
-                                                         say, fine, before, refits,
-                                                         RAISE_MAX + CHECK_EXTRA - len(raised))
-        current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
-        current, f0, trained = _raise_training(dataset, ctx, kept, current, f0, holdout, executor, refits, say)
-        raised = raised + trained
-        current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
-        calibration = _calibration(dataset, current, executor, say)
-        account = gain_account(dataset, ctx, kept, current, holdout, executor, say)
-        own_error = self_check(dataset, current, executor, say)
-        final_windows = locate(dataset, current) if current is not f0 else None
-        return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
-                         final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
-                         raised=raised, suggested=suggested, cold=cold, taken=taken, reselect=reselect,
-                         calibration=calibration, values_in_N=values, gain_account=account,
-                         self_error=own_error)
+        D = _diagnose(dataset, executor, say, holdout, pool, wall)
+        D = _again(dataset, D, executor, say, holdout, pool, wall)
+        return D
     except BaseException:
         if own:                  # Ctrl-C or an error: the workers' runs are not waited for
             stop_pool(executor)
@@ -225,6 +178,108 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
     finally:
         if own:
             executor.shutdown()
+
+
+def _again(dataset, D, executor, say, holdout, pool, wall) -> Diagnosis:
+    """The diagnosis run again at a finer N (self_error.py's module docstring: again_N)
+    when the final model of D is far off its own solution and does not reach the noise:
+    among the entries D kept (all their forms), from the baseline at that N, every cap
+    counted from the dataset's nominal N. The second run is taken where its worse error
+    (held out, training) is no more than RES_WORSE times the first's; else the first
+    stands (the data fit the coarser grid better). Either way `again` records the other
+    run. D when nothing is run again (nothing kept, or again_N says no)."""
+    N2 = again_N(D.self_error, dataset.params.N, D.final)
+    if N2 is None or not D.kept:
+        return D
+    s, names = D.self_error, {e.name for e in D.kept}
+    say(f"the final model is {_um(s['rmse'])} off its own solution at N = {s['N_ref']} ({s['ratio']:.1f}x the "
+        f"noise) and leaves {_um(_worst_error(D.final))}: the diagnosis runs again at N = {N2} among "
+        f"{', '.join(sorted(names))}")
+    D2 = _diagnose(dataset, executor, say, holdout, [e for e in pool if e.name in names], wall, N=N2)
+    taken = _worst_error(D2.final) <= RES_WORSE * _worst_error(D.final)
+    out = D2 if taken else D
+    out.again = {"N_nominal": dataset.params.N, "N_again": N2, "taken": taken, "self_error": D.self_error,
+                   "first": _run_record(D), "second": _run_record(D2)}
+    out.wall_time = time.perf_counter() - wall
+    say(f"the run at N = {N2} " + (f"is taken ({_um(_worst_error(D2.final))} against {_um(_worst_error(D.final))})"
+                                   if taken else f"fits worse ({_um(_worst_error(D2.final))} against "
+                                   f"{_um(_worst_error(D.final))}): the first run stands"))
+    return out
+
+
+def _run_record(D) -> dict:
+    """One run of an again pair (diagnose._again): what it named, where and how well."""
+    return {"missing_physics": [e.key for e in D.missing_physics], "corrections": [e.key for e in D.corrections],
+            "N_final": D.final.params.N, "train_rmse": D.final.train_rmse, "heldout_rmse": D.final.heldout_rmse,
+            "wall_time": D.wall_time}
+
+
+def _diagnose(dataset, executor, say, holdout, pool, wall, N=None) -> Diagnosis:
+    """diagnose's selection and checks on `dataset` among the entries `pool` (the executor
+    owned by the caller; wall: when the diagnosis began), from its nominal N or from `N`:
+    a doubling of the nominal N to reach N counts as a raise (AGAIN), so every cap is the
+    nominal N's."""
+    base = dataset.params if N is None else dataset.params.replace(N=N)
+    raised = again_steps(dataset.params.N, base.N)
+    ctx = Context.of(dataset)
+    say("baseline fit (rho_l)")
+    f0 = fit(dataset, baseline_spec(base, ctx), base=base, holdout=holdout, executor=executor)
+    base, f0, steps, fine = _resolve(dataset, base, ctx, f0, holdout, executor, say, RAISE_MAX - len(raised))
+    raised = raised + steps
+    # where the field laws also start: each training voltage's own level (levels.py)
+    ctx = replace(ctx, levels=voltage_levels(dataset, f0, ctx, executor))
+    say(f"baseline: train RMSE {f0.train_rmse * 1e6:.3g} um, held out {_um(f0.heldout_rmse)}; locating")
+    rounds, refits = [], []     # (a fit, its refit at fine_N) made on the way (_raise_kept)
+    base, f0, kept, current, before, raised, fine, windows, trends, taken = _select(
+        dataset, base, ctx, f0, pool, raised, fine, rounds, refits, holdout, executor, say)
+    resolution, chain, unverified, suggested, reselect = None, list(kept), [], None, None
+    if kept and not f0.heldout:
+        # nothing held out: the rounds' choices rest on the training data alone (a BIC can
+        # always be lowered by a parameter that bends the model to one condition): they are
+        # suggestions, the final model stays the baseline
+        unverified, suggested, kept, current = list(kept), current, [], f0
+        say(f"nothing held out: {', '.join(e.key for e in unverified)} not applied (unverified suggestions)")
+    if any(e.kind == "physics" for e in kept):
+        ff, fk, due = _reselect_due(dataset, base, ctx, kept, current, f0, holdout, executor, refits, fine,
+                                    RAISE_MAX - len(raised))
+        fine = ff if ff is not None else fine
+        if due:
+            step = _reselect_step(base, kept, current, f0, ff, fk)
+            Nf = ff.params.N
+            say(f"{' + '.join(e.key for e in kept)} removed at N = {Nf} {step['cut_ratio']:.0%} of the squared "
+                f"error it removed at N = {base.N} and leaves {_um(_error(fk))} there: the selection runs "
+                f"again at N = {Nf}")
+            sel = _select(dataset, base.replace(N=Nf), ctx, ff, pool, raised + [step], None, rounds, refits,
+                          holdout, executor, say)
+            reselect = _reselect_record(step, fk, sel[2], sel[3])
+            windows, trends = sel[7], sel[8]      # the baseline's at the finer N, either way
+            if reselect["kept"] == "second":
+                base, f0, kept, current, before, raised, fine, _, _, taken = sel
+                say(f"the selection at N = {Nf} is taken: {' + '.join(e.key for e in kept) or 'nothing'} "
+                    f"({_um(_error(current))} against {_um(_error(fk))})")
+            else:              # the first selection's entries, refitted at the finer N, fit better
+                base, f0, current, before, raised = base.replace(N=Nf), ff, fk, None, raised + [step]
+                fine = None
+                say(f"{' + '.join(e.key for e in kept)} at N = {Nf} fits better than the selection run there: "
+                    f"it stands ({_um(_error(fk))})")
+            chain = list(kept)
+    if any(e.kind == "physics" for e in kept):
+        kept, current, resolution = _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor,
+                                                     say, fine, before, refits,
+                                                     RAISE_MAX + CHECK_EXTRA - len(raised))
+    current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
+    current, f0, trained = _raise_training(dataset, ctx, kept, current, f0, holdout, executor, refits, say)
+    raised = raised + trained
+    current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
+    calibration = _calibration(dataset, current, executor, say)
+    account = gain_account(dataset, ctx, kept, current, holdout, executor, say)
+    own_error = self_check(dataset, current, executor, say)
+    final_windows = locate(dataset, current) if current is not f0 else None
+    return Diagnosis(dataset, f0, current, kept, rounds, windows, trends, time.perf_counter() - wall, ctx,
+                     final_windows=final_windows, resolution=resolution, chain=chain, unverified=unverified,
+                     raised=raised, suggested=suggested, cold=cold, taken=taken, reselect=reselect,
+                     calibration=calibration, values_in_N=values, gain_account=account,
+                     self_error=own_error)
 
 
 def _calibration(dataset, f, executor, say) -> dict | None:

@@ -10,7 +10,7 @@ import numpy as np
 from dfa_model.io.fileio import write_atomic, write_text_atomic
 
 from .gain_account import PRIOR_SDS
-from .improved import entry_parameters, raised_phrases, write_improved, write_protocols
+from .improved import again_phrase, entry_parameters, raised_phrases, write_improved, write_protocols
 from .levels import LEVEL_STEPS
 from .rules import STRONG_ERROR, UNEXPLAINED
 from .timing import GAIN_PRIOR, TIMING
@@ -84,6 +84,7 @@ def to_json(D) -> dict:
         "heldout_common_gain": getattr(D, "calibration", None),
         "gain_account": getattr(D, "gain_account", None),
         "self_error": getattr(D, "self_error", None),
+        "diagnosed_again": getattr(D, "again", None),
         "drive_timing": drive_timing(D) or None,
         "monitor_gain": monitor_gain(D) or None,
         "zeros_fitted": zeros_fitted(D) or None,
@@ -218,6 +219,8 @@ def conclusion(D) -> str:
         parts.append(gp)
     if (sp := self_error_phrase(D)):
         parts.append(sp)
+    if (ap := again_phrase(D)):
+        parts.append(ap)
     parts += raised_phrases(D.raised)
     if reselect_phrase(D):
         parts.append(reselect_phrase(D))

@@ -17,10 +17,10 @@ from .rules import (
 )
 
 
-def _resolve(dataset, base, ctx, f0, holdout, executor, say):
+def _resolve(dataset, base, ctx, f0, holdout, executor, say, budget=RAISE_MAX):
     """Resolution first: while the baseline leaves more than RAISE_FLOOR sensor noises and
     its refit at fine_N (warm, RES_NFEV evaluations) cuts that error below RAISE_GAIN of
-    it, the selection runs at the finer N (at most RAISE_MAX doublings). A coarse model's
+    it, the selection runs at the finer N (at most `budget` doublings). A coarse model's
     own discretization error against a finer truth is structured and large (11 um at N =
     21 against 1.5 um noise on the lab rig): at N = 21 a spline law took up enough of it,
     and kept its share when the elements doubled, to be named on a null dataset. Returns
@@ -28,7 +28,7 @@ def _resolve(dataset, base, ctx, f0, holdout, executor, say):
     at fine_N of the returned base when one was made and not taken, else None: the same
     refit _resolution_check would make)."""
     steps = []
-    for _ in range(RAISE_MAX):
+    for _ in range(budget):
         if _error(f0) <= RAISE_FLOOR * f0.sigma:
             break
         Nf = fine_N(base.N)
