@@ -190,13 +190,18 @@ def cmd_simulate(args):
     elif not args.out and not args.plot:
         sys.stdout.write(res.to_csv())
     else:
+        from .io.plotting import periodic_hold
         s = res.summary()
-        held = ""
+        held, pulses = "", periodic_hold(res)
         if res.period is not None and res.period <= proto.duration:
             held = (f", ripple {res.ripple() * 1e6:.3f} um, drift {res.drift * 1e6:.3f} um (stroke lost against the "
                     f"uncharged static {res.x_static * 1e3:.4f} mm)")
+        # a square wave held: the rate the per-period mean stroke is lost at, not the DC hold's chord
+        speed = (f"unzipping speed {s['unzipping_speed'] * 1e6:.4f} um/s" if pulses is None else
+                 f"drift rate {pulses[1] * 1e6:.4f} um/s (per-period mean)" if math.isfinite(pulses[1]) else
+                 "drift rate - (under two periods held)")
         print(f"static stroke {s['static_stroke'] * 1e3:.4f} mm, final stroke {s['final_stroke'] * 1e3:.4f} mm, "
-              f"unzipping speed {s['unzipping_speed'] * 1e6:.4f} um/s{held} ({s['wall_time'] * 1e3:.1f} ms, "
+              f"{speed}{held} ({s['wall_time'] * 1e3:.1f} ms, "
               f"{s['steps']} steps)" + (f"; wrote {args.out}" if args.out else "") + (f", {args.plot}" if args.plot else ""),
               file=sys.stderr)
 

@@ -41,6 +41,31 @@ def test_simulate_writes_recording_csv_plot_and_json(tmp_path, capsys):
     assert out_png.stat().st_size > 10_000
 
 
+def test_a_pulse_train_held_is_summed_up_by_its_drift_rate_not_a_dc_chord(tmp_path, capsys):
+    """Under unipolar pulses the DC hold's unzipping chord (Sec. 3.1) joined the first
+    pulse's peak to the stroke at rest in the last pause (1.47 mm -> 0 over 5 s, '297
+    um/s'): the summary line, the plot's title and its stroke panel give the per-period
+    mean stroke's drift rate instead; a DC hold keeps its unzipping speed."""
+    from dfa_model import preset, simulate
+    from dfa_model.io.plotting import default_title, periodic_hold
+    from dfa_model.waveforms import Protocol, Unipolar
+    rc, _, err = run(["simulate", "--preset", "vshape-table1", "--set", "N=41", "--voltage", "6000", "--force", "3",
+                      "--waveform", "unipolar", "--frequency", "5", "--duration", "2", "--plot",
+                      str(tmp_path / "u.png")], capsys)
+    assert rc == 0 and "drift rate" in err and "unzipping speed" not in err
+    rc, _, err = run(["simulate", "--preset", "vshape-table1", "--set", "N=41", "--voltage", "6000", "--force", "3",
+                      "--reset", "0.5", "--duration", "2", "--plot", str(tmp_path / "d.png")], capsys)
+    assert rc == 0 and "unzipping speed" in err and "drift rate" not in err
+    p = preset("vshape-table1").replace(N=41)
+    res = simulate(p, Protocol.single(Unipolar(6000, 5.0, 0.5), 2.0), load=3.0)
+    rows, rate = periodic_hold(res)
+    assert len(rows) == 10 and abs(rows[1, 0] - 0.2) < 1e-12
+    # each period's mean sits between its rest (0) and its pulse's peak: about half the peak
+    assert all(0.3 < m / hi < 0.7 for m, hi in rows[:, [1, 3]]) and abs(rate) < 0.05 * res.peak_stroke
+    assert "drift rate" in default_title(res) and "unzipping speed" not in default_title(res)
+    assert periodic_hold(simulate(p, Protocol.dc(6000, 1.0), load=3.0)) is None
+
+
 @pytest.mark.parametrize("args,needle", [
     (["--set", "a=0.06"], "a: semi-aperture"),
     (["--set", "foo=1"], "foo: unknown key"),

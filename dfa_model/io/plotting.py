@@ -46,9 +46,28 @@ def default_title(res, source=None) -> str:
     head = f"{source}: " if source else ""
     stages = " + ".join(f"{s.label or 'stage'} {s.duration:g} s" for s in res.protocol.stages)
     rho = f"{p.rho_l:.3g}".replace("e+", "e")
+    held = periodic_hold(res)
+    last = (f"unzipping speed {res.unzipping_speed * 1e6:.4g} µm/s" if held is None else
+            f"ripple {res.ripple() * 1e6:.4g} µm" + (f", drift rate {held[1] * 1e6:.4g} µm/s"
+                                                     if np.isfinite(held[1]) else ""))
     return (f"{head}{p.layout}, N = {p.N}, ρ_l = {rho} Ω m; {res.protocol.amplitude / 1e3:g} kV, "
             f"{describe_load(res.load)}; {stages}\n"
-            f"static stroke {res.static_stroke * 1e3:.4g} mm, unzipping speed {res.unzipping_speed * 1e6:.4g} µm/s")
+            f"static stroke {res.static_stroke * 1e3:.4g} mm, {last}")
+
+
+def periodic_hold(res):
+    """(per-period rows (start, mean, min, max) over the last stage, its drift rate in m/s
+    (positive when lost; NaN under two periods after the first)) when the last stage is a
+    square wave holding at least one whole period, else None. There the DC hold's
+    unzipping chord (Sec. 3.1) is no measure: under unipolar pulses it joins a pulse's
+    peak to the stroke at rest in the last pause."""
+    T = res.period
+    t0, t1 = res.protocol.boundaries[-2], res.protocol.boundaries[-1]
+    if T is None or not T <= min(t1, res.trace.t1) - t0:
+        return None
+    from ..metrics import cycles, drift_rate
+    t1 = min(t1, res.trace.t1)
+    return cycles(res.trace, T, t0, t1), drift_rate(res.trace, T, t0, t1)
 
 
 def _settled(res):
@@ -139,9 +158,17 @@ def plot_result(res, path=None, title=None, source=None):
     t = res.t
     _voltage(ax[0], res)
     ax[1].plot(t, res.x * 1e3, lw=1.2, color="C0", label="stroke")
-    t0, t1 = res.hold_window()
-    ax[1].plot([t0, t1], [res.trace(t0) * 1e3, res.trace(t1) * 1e3], color="k", ls=":", lw=1,
-               label=f"unzipping speed {res.unzipping_speed * 1e6:.4g} µm/s (Sec. 3.1)")
+    held = periodic_hold(res)
+    if held is None:
+        t0, t1 = res.hold_window()
+        ax[1].plot([t0, t1], [res.trace(t0) * 1e3, res.trace(t1) * 1e3], color="k", ls=":", lw=1,
+                   label=f"unzipping speed {res.unzipping_speed * 1e6:.4g} µm/s (Sec. 3.1)")
+    else:                   # a square wave held: each period's mean stroke, and the rate it is lost at
+        c, rate = held
+        ax[1].plot(c[:, 0] + 0.5 * res.period, c[:, 1] * 1e3, color="k", ls=":", lw=1,
+                   marker="." if len(c) <= MAX_DRAWN_PERIODS else None, ms=3,
+                   label="per-period mean stroke" + (f", drift rate {rate * 1e6:.4g} µm/s" if np.isfinite(rate)
+                                                     else ""))
     ax[1].set_ylabel("stroke x (mm)")
     ax[1].set_ylim(0, max(float(np.max(res.x)) * 1e3 * 1.25, 1e-6))
     ax[1].legend(loc="upper right", fontsize=7.5)
