@@ -172,40 +172,28 @@ NOTHING_KEPT = "(nothing kept)"   # a Diagnosis.raised step's `after` when the r
 RESELECTED = "(selection run again)"   # ... when the kept set's cut shrank at the finer N (resolution._reselect_due)
 # ... when the final model's training error fell at the finer N (resolution._raise_training)
 TRAINING = "(training error)"
-AGAIN = "(diagnosed again)"   # ... a doubling of the nominal N the diagnosis ran again from (diagnose._again)
-
-
-def again_steps(N0: int, N: int) -> list:
-    """Diagnosis.raised's steps for the doublings from the nominal N0 to N that a run
-    again starts from (one per doubling: the raise budgets count them, so every cap is
-    N0's); raised_phrases leaves them to again_phrase."""
-    out = []
-    while N0 < N:
-        out.append({"N": N0, "N_fine": 2 * N0 - 1, "error": None, "error_fine": None, "after": AGAIN})
-        N0 = 2 * N0 - 1
-    return out
 
 
 def again_phrase(D) -> str | None:
-    """Why the diagnosis ran again at a finer N (diagnose._again) and which run stands."""
+    """What the resolution check again at a finer N did (diagnose._again)."""
     a = getattr(D, "again", None)
     if not a:
         return None
-    s, r1, r2 = a["self_error"], a["first"], a["second"]
-    what = " + ".join(r1["missing_physics"] + r1["corrections"]) or "the baseline"
-    why = (f"the first run's final model ({what} at N = {r1['N_final']}) was {s['rmse'] * 1e6:.3g} um off its own "
-           f"solution at N = {s['N_ref']} ({s['ratio']:.1f}x the sensor noise)")
-
-    def worse(r):            # um: the worse of held out and training, as _again compared them
-        return max(r["train_rmse"], r["heldout_rmse"] or 0.0) * 1e6
+    s, r1, rec = a["self_error"], a["first"], a.get("check") or {}
+    what = " + ".join(r1["missing_physics"] + r1["corrections"])
+    head = (f"the resolution check again at N = {a['N_again']} (the dataset's {a['N_nominal']}): the final model "
+            f"({what} at N = {r1['N_final']}) was {s['rmse'] * 1e6:.3g} um off its own solution at N = {s['N_ref']} "
+            f"({s['ratio']:.1f}x the sensor noise)")
+    dropped = (rec.get("dropped") or []) + (rec.get("dropped_marginal") or [])
+    if rec.get("error"):
+        return f"{head}, and the check could not run ({rec['error']}): the first outcome stands (diagnosed_again)"
+    if dropped:
+        return (f"{head}: {', '.join(dropped)} dropped there (it took up the model's discretization error); "
+                f"the final model is at N = {a['second']['N_final']} (diagnosed_again)")
     if a["taken"]:
-        return (f"diagnosed again at N = {a['N_again']} (the dataset's {a['N_nominal']}) among the entries the first "
-                f"run named: {why}; this run is the one reported ({worse(r1):.3g} -> {worse(r2):.3g} um, the worse "
-                f"of held out and training; diagnosed_again)")
-    named = " + ".join(r2["missing_physics"] + r2["corrections"]) or "nothing"
-    return (f"diagnosed again at N = {a['N_again']} because {why}, but that run ({named}) fits worse "
-            f"({worse(r1):.3g} -> {worse(r2):.3g} um): the first run stands - the data fit the coarser grid better, "
-            f"as data made by this model at N = {r1['N_final']} would (diagnosed_again)")
+        return (f"{head}: {what} holds there and fits better; the final model is at N = {a['second']['N_final']} "
+                f"(diagnosed_again)")
+    return f"{head}: {what} holds there, and the finer model fits no better: the first outcome stands (diagnosed_again)"
 
 
 def raised_phrases(raised: list) -> list:
@@ -217,9 +205,6 @@ def raised_phrases(raised: list) -> list:
         while j + 1 < len(raised) and raised[j + 1].get("after") == raised[i].get("after"):
             j += 1
         a, b, after = raised[i], raised[j], raised[i].get("after")
-        if after == AGAIN:            # said by again_phrase
-            i = j + 1
-            continue
         if after == RESELECTED:
             out.append(f"N raised from {a['N']} to {a['N_fine']} after the selection kept "
                        f"{' + '.join(a['kept_first'])}: at N = {a['N_fine']} it removed {a['cut_ratio']:.0%} of the "

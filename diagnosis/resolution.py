@@ -17,10 +17,10 @@ from .rules import (
 )
 
 
-def _resolve(dataset, base, ctx, f0, holdout, executor, say, budget=RAISE_MAX):
+def _resolve(dataset, base, ctx, f0, holdout, executor, say):
     """Resolution first: while the baseline leaves more than RAISE_FLOOR sensor noises and
     its refit at fine_N (warm, RES_NFEV evaluations) cuts that error below RAISE_GAIN of
-    it, the selection runs at the finer N (at most `budget` doublings). A coarse model's
+    it, the selection runs at the finer N (at most RAISE_MAX doublings). A coarse model's
     own discretization error against a finer truth is structured and large (11 um at N =
     21 against 1.5 um noise on the lab rig): at N = 21 a spline law took up enough of it,
     and kept its share when the elements doubled, to be named on a null dataset. Returns
@@ -28,7 +28,7 @@ def _resolve(dataset, base, ctx, f0, holdout, executor, say, budget=RAISE_MAX):
     at fine_N of the returned base when one was made and not taken, else None: the same
     refit _resolution_check would make)."""
     steps = []
-    for _ in range(budget):
+    for _ in range(RAISE_MAX):
         if _error(f0) <= RAISE_FLOOR * f0.sigma:
             break
         Nf = fine_N(base.N)
@@ -223,7 +223,7 @@ def _reselect_record(step, fk, kept2, current2) -> dict:
             "kept": "second" if second else "first"}
 
 def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, say, fine=None, before=None,
-                      refits=(), budget=0):
+                      refits=(), budget=0, Nf=None, every=False):
     """Rule out the model's own discretization error before naming missing physics. The
     baseline and the kept model are refitted at fine_N (warm-started: a few steps). Real
     physics keeps its gain over the baseline when the elements double; an entry that only
@@ -243,10 +243,13 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
     the finer model is nearer the data; when the finer baseline fits no better
     (RES_PREMISE), the data share the model's own grid (synthetic data made at this N: then
     the coarse model is exact and the finer one off by its discretization error) and the
-    check is inconclusive: what was kept stands.
+    check is inconclusive: what was kept stands. `Nf`: the finer N (default fine_N);
+    `every`: each physics entry of two or more is checked on top of the rest, the last one
+    too, without `before` (_earlier_entries_check; the check at the N where the final
+    model is within the noise of its own solution, diagnose._again).
     Returns (kept, final, the check's record)."""
     N = base.N
-    Nf = fine_N(N)
+    Nf = fine_N(N) if Nf is None else Nf
     nominal_kept = [e for e in kept if e.kind == "nominal"]
     say(f"resolution check: the baseline and {' + '.join(e.key for e in kept)} at N = {Nf}")
     fb = base.replace(N=Nf)
@@ -270,11 +273,11 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
                "resolution_only": False,
                "inconclusive": "the baseline fits no better at the finer N: resolution is not what "
                                "the model misses here (or the data were made at this N)"}
-        if not _checks_last_entry(kept, before):
+        if not _checks_last_entry(kept, before) and not every:
             return kept, current, rec
         try:
             kept, kf = _marginal(rec, dataset, fb, ctx, kept, current, before, kf, holdout, executor, say, refits,
-                                     budget)
+                                     budget, every)
         except Exception as exc:   # the kept model cannot be refitted at the finer N: what was kept stands
             rec["error"] = f"{type(exc).__name__}: {exc}"
             return kept, current, rec
@@ -324,7 +327,7 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
     if not only:
         try:
             kept, kf = _marginal(rec, dataset, fb, ctx, kept, current, before, kf, holdout, executor, say, refits,
-                                     budget)
+                                     budget, every)
             if not rec.get("refined") and not _beyond_reach(current):
                 fk = kf.fit()     # the final model may be the finer one: it is refitted
         except Exception as exc:   # the kept model cannot be refitted at the finer N: what was kept stands
@@ -384,7 +387,8 @@ def _checks_last_entry(kept, before) -> bool:
         and sum(x.kind == "physics" for x in kept) >= 2
 
 
-def _marginal(rec, dataset, fb, ctx, kept, current, before, kf, holdout, executor, say, refits=(), budget=0):
+def _marginal(rec, dataset, fb, ctx, kept, current, before, kf, holdout, executor, say, refits=(), budget=0,
+              every=False):
     """_last_entry_check into the resolution check's record `rec`: `marginal` and
     `dropped_marginal`, and when the last entry is dropped the errors of the final model,
     the rest refitted at the finer N (`kept_rmse`, `kept_fine_rmse`, `refined`). Returns
@@ -395,7 +399,8 @@ def _marginal(rec, dataset, fb, ctx, kept, current, before, kf, holdout, executo
     if marginal and marginal[-1]["dropped"]:
         fb = fb.replace(N=kf.best().params.N)      # a deeper check dropped it: the rest is checked there
     kept, kf, earlier = _earlier_entries_check(dataset, fb, ctx, kept, kf, holdout, executor, say, N,
-                                               budget if fb.N == fine_N(N) else 0)
+                                               budget if fb.N == fine_N(N) else 0,
+                                               every and not marginal)
     marginal = marginal + earlier
     if marginal:
         rec["marginal"] = marginal
@@ -627,7 +632,7 @@ def _deeper(dataset, fb, ctx, e, kept, fwf, kf, N, holdout, executor, say, budge
     return holds, fwd
 
 
-def _earlier_entries_check(dataset, fb, ctx, kept, kf, holdout, executor, say, N=None, budget=0):
+def _earlier_entries_check(dataset, fb, ctx, kept, kf, holdout, executor, say, N=None, budget=0, last=False):
     """Backward elimination after the forward selection: with two or more physics entries
     kept, each one kept before the last must still pass acceptance (_accept) on top of all
     the others, at the finer N (fb) - the kept model without it refitted from the kept
@@ -635,13 +640,16 @@ def _earlier_entries_check(dataset, fb, ctx, kept, kf, holdout, executor, say, N
     falling 13685 for a spring against 13218 for a branch kept the spring first on a
     branch's dataset; the branch, kept two rounds later, explains what the spring took
     up, and the spring was named as well). Returns (kept, the kept model at the
-    finer N, [{entry, gain_fine, rmse_without, dropped, later: True}])."""
+    finer N, [{entry, gain_fine, rmse_without, dropped, later: True}]). `last`: the last
+    entry is checked too, first (its own check, _last_entry_check, did not run)."""
     if sum(x.kind == "physics" for x in kept) < 2:
         return kept, kf, []
     out = []
-    for e in [x for x in kept[:-1] if x.kind == "physics"]:
-        say(f"resolution check: {e.key} on top of the entries kept after it (the kept model without it at "
-            f"N = {fb.N})")
+    for e in ([kept[-1]] if last else []) + [x for x in kept[:-1] if x.kind == "physics"]:
+        if e.kind != "physics":
+            continue
+        say(f"resolution check: {e.key} on top of the " + ("rest" if e is kept[-1] else "entries kept after it")
+            + f" (the kept model without it at N = {fb.N})")
         fwf = _fit_without(dataset, fb, ctx, e, kept, kf.best(), holdout, executor)
         if fwf is None:          # the model without it cannot run: it stays
             continue
@@ -651,7 +659,8 @@ def _earlier_entries_check(dataset, fb, ctx, kept, kf, holdout, executor, say, N
         if holds:
             holds, fwf = _deeper(dataset, fb, ctx, e, kept, fwf, kf, N, holdout, executor, say, budget, out[-1])
         if not holds:
-            say(f"resolution check: {e.key} cuts the error by {out[-1]['gain_fine']:.0%} on top of the entries kept "
-                f"after it at N = {fwf.params.N}: they explain what it took up")
+            say(f"resolution check: {e.key} cuts the error by {out[-1]['gain_fine']:.0%} on top of the "
+                + ("rest" if e is kept[-1] else "entries kept after it")
+                + f" at N = {fwf.params.N}: they explain what it took up")
             return [x for x in kept if x is not e], _KeptFine(of=fwf), out
     return kept, kf, out

@@ -16,18 +16,16 @@ and the RMS difference of the strokes is its own error. At SELF_TOL sensor noise
 the report says so - the named values carry the grid's bias - and how far it falls at
 twice the elements.
 
-At SELF_AGAIN noises or more the diagnosis runs again (diagnose.py), once, at the finer N
-where the error, falling at its measured rate per doubling, is within SELF_TOL noises
-(again_N; at most SELF_N_MAX times the dataset's nominal N - every cap of the second run
-counts from that nominal N, not from its own start), among the entries the first run kept
-(all their forms). On the branch above, at N = 161 it named the branch alone, chi_p
-0.226 -> 0.237 and tau_p 0.543 -> 0.555 s at N = 321 -> 641 (truth 0.238, 0.556 s), held
-out 1.82 um (1.0 noise), in 95 s. Not where the final model reaches the noise (SELF_FIT,
-held out and in training): data the model made on its own grid fit it there and a finer
-model fits them worse (examples/workflow.py --quick, made at N = 21: 13 noises off itself,
-0.97 noises in training, its refit at 41 6x worse) - these data cannot ask for a finer N,
-and the report says the values carry the grid's bias. The second run is taken only where
-it fits no worse (diagnose._again).
+At SELF_AGAIN noises or more the resolution check runs again (diagnose._again), once, at
+the finer N where the error, falling at its measured rate per doubling, is within SELF_TOL
+noises (again_N; at most SELF_N_MAX times the dataset's nominal N): the baseline and the
+kept model refitted there, and each physics entry of two or more on top of the rest - the
+check a doubling finer was misled by an error not monotone in N. Not where the final
+model reaches the noise (SELF_FIT, held out and in training): data the model made on its
+own grid fit it there and a finer model fits them worse (examples/workflow.py --quick,
+made at N = 21: 13 noises off itself, 0.97 noises in training, its refit at 41 6x worse) -
+these data cannot ask for a finer N, and the report says the values carry the grid's
+bias.
 """
 from __future__ import annotations
 
@@ -36,14 +34,14 @@ from .rules import _um, _worst_error, fine_N
 
 SELF_REF = 4     # the reference: two doublings finer (the continuum scheme's error falls ~4x per doubling)
 SELF_TOL = 1.0   # the model's own error, in sensor noises, from which the report says so
-SELF_AGAIN = 2.0  # ... and from which the diagnosis runs again at a finer N (again_N)
+SELF_AGAIN = 2.0  # ... and from which the resolution check runs again at a finer N (again_N)
 SELF_N_MAX = 8    # ... at most this many times the dataset's nominal N (as the value check)
 SELF_FIT = 1.1    # ... unless its worse error (held out, training) is within this many noises: the data are
 #                   reached at this N (rules.SHAPE_DONE's "at the noise")
 
 
 def again_N(rec, nominal_N: int, final) -> int | None:
-    """The N the diagnosis runs again at (module docstring): the first doubling where the
+    """The N the resolution check runs again at (module docstring): the first doubling where the
     error, falling at its measured rate, is within SELF_TOL noises, else the finest within
     SELF_N_MAX times the nominal N; None when the final model's own error (self_check's
     record) is below SELF_AGAIN noises, was not measured at twice its elements, does not

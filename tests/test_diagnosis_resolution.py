@@ -242,9 +242,9 @@ def test_each_kept_entry_must_hold_on_its_own_when_the_elements_double(tmp_path)
     data, until its own discretization error near the front was removed)."""
     forms = [e for e in diagnosis.PHYSICS if e.name in ("inertia", "stiffness")]
     mp = _one_doubling()        # with two, inertia's kept model leaps to N = 81 and no branch is kept (test above)
-    # the rule under test is the first run's: its final model (inertia at N = 41, 2.41 um held out,
-    # 4.6 noises) is 13 noises off its own solution, and the run again at N = 161 (diagnose._again)
-    # stands instead: inertia alone, m 0.04997 for 0.05, 0.92 um held out
+    # the rule under test is the first check's: its final model (inertia at N = 41, 2.41 um held
+    # out, 4.6 noises) is 13 noises off its own solution, and the check again at N = 161
+    # (diagnose._again) takes inertia there: m 0.04998 for 0.05, 0.92 um held out
     mp.setattr(importlib.import_module("diagnosis.diagnose"), "_again", lambda dataset, D, *a: D)
     try:
         D = diagnosis.diagnose(_inertia_data(tmp_path), executor=InProcess(), candidates=forms)

@@ -83,93 +83,65 @@ def test_the_n_the_diagnosis_runs_again_at():
     assert again_N(rec, 21, NS(sigma=1.7e-6, train_rmse=1.6e-6, heldout_rmse=2.2e-6)) == 161   # held out not
 
 
-def _run(N, physics, worst, own, wall=100.0):
-    return NS(self_error=own, final=NS(sigma=1.7e-6, params=NS(N=N), train_rmse=worst, heldout_rmse=0.9 * worst),
-              kept=[NS(name=k.split(" (")[0], key=k, kind="physics") for k in physics],
-              missing_physics=[NS(key=k) for k in physics], corrections=[], wall_time=wall, again=None)
+OWN = {"N": 21, "N_ref": 81, "rmse": 8.96e-6, "rmse_fine": 4.65e-6, "ratio": 5.3, "flagged": True}
+
+
+def _fit(N, worst):
+    return NS(sigma=1.7e-6, params=NS(N=N), train_rmse=worst, heldout_rmse=0.9 * worst)
+
+
+def _entry(key):
+    return NS(name=key.split(" (")[0], key=key, kind="physics")
 
 
 @pytest.fixture
-def stubbed(monkeypatch):
-    """diagnose with _diagnose stubbed: the first run (N = 21) names the branch and an
-    Eq. (21) law, 8.96 um off itself; the second (`second`: N, physics, worst error)."""
+def again(monkeypatch):
+    """diagnose._again on a first outcome stubbed as the inversion draw's (the branch and
+    an Eq. (21) law at N = 21, 8.96 um off itself, 2.48 um), with the check and the
+    finishing steps stubbed: `check` sets what the check at the finer N returns."""
     import importlib
     dg = importlib.import_module("diagnosis.diagnose")
-    calls, second = [], {}
-    own = {"N": 21, "N_ref": 81, "rmse": 8.96e-6, "rmse_fine": 4.65e-6, "ratio": 5.3, "flagged": True}
-
-    def fake(dataset, executor, say, holdout, pool, wall, N=None):
-        calls.append((N, sorted(e.key for e in pool)))
-        if N is None:
-            return _run(21, second.get("first", ["polarization_branch", "field_dependent_resistivity (Eq. 21)"]),
-                        2.48e-6, own)
-        return _run(*second["run"], dict(own, N=321, rmse=1.1e-6, rmse_fine=None, flagged=False))
-    monkeypatch.setattr(dg, "_diagnose", fake)
     from dfa_model.io.recordings import Dataset
+    calls, check = [], {}
+    branch, law = _entry("polarization_branch"), _entry("field_dependent_resistivity (Eq. 21)")
+
+    def resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, say, refits=(), Nf=None,
+                         every=False, **kw):
+        calls.append({"N": base.N, "Nf": Nf, "every": every, "kept": [e.key for e in kept]})
+        return check["out"](kept, current)
+    monkeypatch.setattr(dg, "_resolution_check", resolution_check)
+    monkeypatch.setattr(dg, "_finish", lambda dataset, ctx, kept, current, f0, holdout, executor, refits, say, D: D)
     ds = Dataset(folder=None, params=preset("vshape-table1").replace(N=21), recordings=[])
-    return lambda: dg.diagnose(ds, executor=NS()), calls, second
+
+    def run(kept=(branch, law)):
+        D = dg.Diagnosis(ds, _fit(21, 6e-6), _fit(21, 2.48e-6), list(kept), [], [], [], 100.0, NS(), self_error=OWN)
+        return dg._again(ds, D, None, lambda s: None, None, 0.0)
+    return run, calls, check, branch, law
 
 
-def test_the_diagnosis_runs_again_among_the_entries_named_and_takes_the_better_run(stubbed):
+def test_the_check_runs_again_where_the_model_is_within_the_noise_of_itself(again):
     from diagnosis.improved import again_phrase
-    run, calls, second = stubbed
-    second["run"] = (321, ["polarization_branch"], 1.85e-6)
+    run, calls, check, branch, law = again
+    check["out"] = lambda kept, current: ([branch], _fit(161, 1.86e-6), {"dropped_marginal": [law.key]})
     D = run()
-    laws = sorted(e.key for e in PHYSICS if e.name == "field_dependent_resistivity")
-    assert len(laws) >= 2 and calls[0][0] is None and calls[1][0] == 161
-    # the second run's pool: every form of each entry the first run named, nothing else
-    assert calls[1][1] == sorted(["polarization_branch", *laws])
-    assert D.final.params.N == 321 and D.again["taken"] and D.again["first"]["N_final"] == 21
-    assert D.again["first"]["missing_physics"][1] == "field_dependent_resistivity (Eq. 21)"
+    assert calls == [{"N": 21, "Nf": 161, "every": True, "kept": [branch.key, law.key]}]
+    assert [e.key for e in D.missing_physics] == ["polarization_branch"] and D.final.params.N == 161
+    assert D.again["taken"] and D.again["first"]["missing_physics"] == [branch.key, law.key]
     text = again_phrase(D)
-    assert "diagnosed again at N = 161 (the dataset's 21)" in text and "8.96 um off its own solution at N = 81" in text
-    assert "2.48 -> 1.85 um" in text
+    assert "the resolution check again at N = 161 (the dataset's 21)" in text
+    assert "8.96 um off its own solution at N = 81" in text and f"{law.key} dropped there" in text
 
 
-def test_a_second_run_that_fits_worse_leaves_the_first_standing(stubbed):
+def test_a_check_that_keeps_the_coarse_model_says_the_first_outcome_stands(again):
     from diagnosis.improved import again_phrase
-    run, calls, second = stubbed
-    second["run"] = (161, ["polarization_branch"], 6.0e-6)        # the data fit the coarse grid better
+    run, calls, check, branch, law = again
+    check["out"] = lambda kept, current: (kept, current, {"refined": False})
     D = run()
-    assert [c[0] for c in calls] == [None, 161]
-    assert D.final.params.N == 21 and not D.again["taken"] and D.again["second"]["heldout_rmse"] == pytest.approx(5.4e-6)
-    assert "the first run stands" in again_phrase(D)
+    assert len(calls) == 1 and D.final.params.N == 21 and not D.again["taken"]
+    assert "the first outcome stands" in again_phrase(D)
 
 
-def test_nothing_named_or_resolved_runs_once(stubbed):
-    run, calls, second = stubbed
-    second["first"] = []                                  # nothing kept: nothing to choose among
-    D = run()
-    assert len(calls) == 1 and D.again is None
-
-
-def test_a_run_again_counts_its_doublings_from_the_nominal_n(monkeypatch):
-    """The doublings from the nominal N to the second run's start are raise steps: the
-    raise budgets (RAISE_MAX) count them, and the report's N-raised phrases leave them to
-    again_phrase."""
-    import importlib
-    from diagnosis.improved import again_steps, raised_phrases
-    from diagnosis.rules import RAISE_MAX
-    dg = importlib.import_module("diagnosis.diagnose")
-    steps = again_steps(21, 161)
-    assert [(s["N"], s["N_fine"]) for s in steps] == [(21, 41), (41, 81), (81, 161)] and again_steps(21, 21) == []
-    assert raised_phrases(steps) == []
-    seen = {}
-
-    class Stop(Exception):
-        pass
-
-    def resolve(dataset, base, ctx, f0, holdout, executor, say, budget):
-        seen.update(N=base.N, budget=budget)
-        raise Stop
-    monkeypatch.setattr(dg, "fit", lambda *a, **k: NS())
-    monkeypatch.setattr(dg, "_resolve", resolve)
-    monkeypatch.setattr(dg.Context, "of", classmethod(lambda cls, ds: NS()))
-    from dfa_model.io.recordings import Dataset
-    ds = Dataset(folder=None, params=preset("vshape-table1").replace(N=21), recordings=[])
-    with pytest.raises(Stop):
-        dg._diagnose(ds, None, lambda s: None, None, [], 0.0, N=161)
-    assert seen == {"N": 161, "budget": RAISE_MAX - 3}
-    with pytest.raises(Stop):
-        dg._diagnose(ds, None, lambda s: None, None, [], 0.0)
-    assert seen == {"N": 21, "budget": RAISE_MAX}
+def test_nothing_named_is_not_checked_again(again):
+    run, calls, check, branch, law = again
+    D = run(kept=[])
+    assert calls == [] and D.again is None
