@@ -216,9 +216,9 @@ def _again(dataset, D, executor, say, holdout, wall) -> Diagnosis:
         rec, kept, current = {"error": f"{type(exc).__name__}: {exc}"}, D.kept, D.final
     first = _run_record(D)
     out = _finish(dataset, D.context, kept, current, f0, holdout, executor, refits, say, replace(D, kept=kept, final=current))
+    out.wall_time = time.perf_counter() - wall
     out.again = {"N_nominal": dataset.params.N, "N_again": N2, "self_error": s, "check": rec, "first": first,
                  "second": _run_record(out), "taken": out.final is not D.final}
-    out.wall_time = time.perf_counter() - wall
     say(f"at N = {N2}: {' + '.join(e.key for e in out.missing_physics) or 'no physics'} "
         f"({_um(_worst_error(out.final))}; the first run {_um(_worst_error(D.final))})")
     return out
