@@ -60,7 +60,8 @@ from .self_error import again_N, self_check
 from .levels import voltage_levels
 from .locate import locate
 from .resolution import (
-    _KeptFine, _fine_baseline, _raise_training, _reselect_due, _reselect_record, _reselect_step, _resolution_check, _resolve,
+    _KeptFine, _fine_baseline, _raise_training, _reselect_due, _reselect_record, _reselect_step, _resolution_check,
+    _resolve,
 )
 from .rounds import _select
 from .rules import (
@@ -215,7 +216,8 @@ def _again(dataset, D, executor, say, holdout, wall) -> Diagnosis:
     except Exception as exc:      # the check cannot run: the first outcome stands
         rec, kept, current = {"error": f"{type(exc).__name__}: {exc}"}, D.kept, D.final
     first = _run_record(D)
-    out = _finish(dataset, D.context, kept, current, f0, holdout, executor, refits, say, replace(D, kept=kept, final=current))
+    out = _finish(dataset, D.context, kept, current, f0, holdout, executor, refits, say,
+                  replace(D, kept=kept, final=current))
     out.wall_time = time.perf_counter() - wall
     out.again = {"N_nominal": dataset.params.N, "N_again": N2, "self_error": s, "check": rec, "first": first,
                  "second": _run_record(out), "taken": out.final is not D.final}
@@ -244,8 +246,9 @@ def _finish(dataset, ctx, kept, current, f0, holdout, executor, refits, say, D) 
     account = gain_account(dataset, ctx, kept, current, holdout, executor, say)
     own_error = self_check(dataset, current, executor, say)
     final_windows = locate(dataset, current) if current is not f0 else None
-    return replace(D, baseline=f0 if f0 is not f_in else D.baseline, final=current, kept=kept, final_windows=final_windows, raised=D.raised + trained,
-                   cold=cold, calibration=calibration, values_in_N=values, gain_account=account, self_error=own_error)
+    return replace(D, baseline=f0 if f0 is not f_in else D.baseline, final=current, kept=kept,
+                   final_windows=final_windows, raised=D.raised + trained, cold=cold, calibration=calibration,
+                   values_in_N=values, gain_account=account, self_error=own_error)
 
 
 def _diagnose(dataset, executor, say, holdout, pool, wall) -> Diagnosis:
