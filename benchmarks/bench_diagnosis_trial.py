@@ -214,7 +214,7 @@ def run_one(case: dict) -> dict:
             "corrected": [k for k, v in report["corrected_parameters"].items() if v["corrected"] and k != "rho_l"],
             # the discretization checks' records: why an entry stood or was dropped, at which N
             "resolution": report["resolution"], "resolution_first": report["resolution_first"],
-            # the diagnosis run again at a finer N (both runs, which one stands: diagnose._again)
+            # the resolution check again at a finer N (before and after it: diagnose._again)
             "diagnosed_again": report.get("diagnosed_again"),
             "wall_time": time.perf_counter() - wall}
 

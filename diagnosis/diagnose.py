@@ -31,9 +31,9 @@ catalog and the nominal values.
    as well (convergence.value_check): refitted at twice the elements while they move by
    more than VALUE_TOL, the finest refit then being the final model. Last, the final
    model's own discretization error at its values (self_error.py): 2 noises or more off
-   its own solution while it does not reach the noise, the diagnosis runs again at the
-   finer N among the entries it named, every cap counted from the nominal N, and the run
-   that fits better stands (_again).
+   its own solution while it does not reach the noise, the resolution check runs again at
+   the N where that error is within the noise (at most 8x the nominal N), each physics
+   entry on top of the rest, and the finishing steps follow on what stands (_again).
 5. Nothing held out (a single condition, or a holdout of none): the rounds still run, on
    the training data alone (BIC), but what they keep is never applied - no nominal value
    is corrected and no physics named without held-out evidence. The entries are the

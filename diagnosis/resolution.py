@@ -300,15 +300,17 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
             kfd = _KeptFine(dataset, fk.params.replace(N=Nd), ctx, kept, fk, holdout, executor, refits)
             premise = _error(ffd) < RES_PREMISE * _error(ff)
             holds_d, fkd = _holds(kfd, ffd, gain) if premise else (None, None)
-            if premise and not holds_d and _error(fkd) > RES_WORSE * _error(fk) and not fkd.converged:
-                # the baseline better there, the kept model's warm refit clearly worse and stopped
-                # short: its search goes on before the check is judged on it
+
+            def short():      # the kept model there fails, clearly worse than at Nf, its search stopped short
+                return not holds_d and _error(fkd) > RES_WORSE * _error(fk) and not fkd.converged
+            if premise and short():
+                # the baseline better there: the kept model's search goes on before the check is judged on it
                 say(f"resolution check: {' + '.join(e.key for e in kept)} at N = {Nd} left {_um(_error(fkd))} "
                     f"after {RES_NFEV} evaluations, {_um(_error(fk))} at N = {Nf}: refitted further")
                 fkd = fit(dataset, fkd.spec, holdout=holdout, executor=executor, warm=fk,
                           max_nfev=CANDIDATE_NFEV - RES_NFEV, resume=fkd)
                 holds_d = _keeps(fkd, ffd, gain)
-            if not premise or (not holds_d and _error(fkd) > RES_WORSE * _error(fk) and not fkd.converged):
+            if not premise or short():
                 # the deeper baseline fitting no better (a law under inversion, 4.39 um at N = 41,
                 # 5.26 um at 81, the baseline 5.82 and 5.86: a real law was dropped on it), or the
                 # kept model there clearly worse than at the first finer N with its search stopped
