@@ -216,6 +216,9 @@ def run_one(case: dict) -> dict:
             "resolution": report["resolution"], "resolution_first": report["resolution_first"],
             # the resolution check again at a finer N (before and after it: diagnose._again)
             "diagnosed_again": report.get("diagnosed_again"),
+            # (kept entry, its rival that explains the data as well, whether a condition tells them apart)
+            "alternatives": [(a["entry"], a["rival"], bool((a["separate_at"] or {}).get("tells")))
+                             for a in report.get("alternatives") or []],
             "wall_time": time.perf_counter() - wall}
 
 
@@ -246,6 +249,13 @@ def summarize(rows: list) -> str:
                      + ", ".join(f"{r['effect']}: {'+'.join(r['not_separable'])}" for r in ns)
                      + f"); false alarms on nulls without them: {fa - fa_ns}/{len(nulls)}, right among the "
                      f"effects flagged so: {sum(r['right'] for r in ns if r['effect'] != 'null')}")
+    alt = [r for r in rows if r.get("alternatives")]
+    if alt:
+        lines.append(f"kept entries reported with an alternative the data cannot tell apart: {len(alt)} ("
+                     + ", ".join(f"{r['effect']}: " + "; ".join(f"{a} or {b}" + (" (a condition tells)" if t else "")
+                                                               for a, b, t in r["alternatives"]) for r in alt)
+                     + f"); wrong answers with the truth among the alternatives: "
+                     f"{sum(not r['right'] and any(b == r['effect'] for _, b, _ in r['alternatives']) for r in alt)}")
     un = [r for r in rows if r.get("unexplained")]
     if un:
         lines.append(f"verdicts of unexplained mismatch: {len(un)} ("

@@ -52,6 +52,7 @@ from dataclasses import dataclass, field, replace
 
 from dfa_model.interrupt import stop_pool
 
+from .alternatives import alternatives
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .convergence import value_check
 from .fit import fit, heldout_common_gain, local_executor
@@ -99,6 +100,8 @@ class Diagnosis:
     self_error: dict | None = None             # the final model's own discretization error (self_error.py)
     again: dict | None = None                  # the resolution check again at a finer N, both outcomes (_again)
     values_in_N: dict | None = None            # the kept entries' values over doublings of N (convergence.py)
+    # kept entries a rival explains the data as well as, and the recording that would tell (alternatives.py)
+    alternatives: list = field(default_factory=list)
 
     @property
     def held_out(self) -> bool:
@@ -169,6 +172,9 @@ def diagnose(dataset, executor=None, progress=None, holdout=None, candidates=Non
         pool = list(candidates) if candidates is not None else PHYSICS + NOMINAL
         D = _diagnose(dataset, executor, say, holdout, pool, wall)
         D = _again(dataset, D, executor, say, holdout, wall)
+        if D.held_out and D.kept:
+            D = replace(D, alternatives=alternatives(dataset, D, executor, say, holdout),
+                        wall_time=time.perf_counter() - wall)
         return D
     except BaseException:
         if own:                  # Ctrl-C or an error: the workers' runs are not waited for

@@ -85,6 +85,7 @@ def to_json(D) -> dict:
         "gain_account": getattr(D, "gain_account", None),
         "self_error": getattr(D, "self_error", None),
         "diagnosed_again": getattr(D, "again", None),
+        "alternatives": getattr(D, "alternatives", None) or None,
         "drive_timing": drive_timing(D) or None,
         "monitor_gain": monitor_gain(D) or None,
         "zeros_fitted": zeros_fitted(D) or None,
@@ -217,6 +218,7 @@ def conclusion(D) -> str:
         parts.append("no missing physics found")
     if (gp := gain_account_phrase(D)):
         parts.append(gp)
+    parts += alternatives_phrases(D)
     if (sp := self_error_phrase(D)):
         parts.append(sp)
     if (ap := again_phrase(D)):
@@ -322,6 +324,53 @@ def gain_account_phrase(D) -> str | None:
             f"{sd:.2%} or more), fits them as well ({a['train_rmse'] * 1e6:.3g} um against "
             f"{a['train_rmse_kept'] * 1e6:.3g} um) - with the monitors calibrated to better than {need:.2%}, or more "
             f"conditions recorded, the data would tell (gain_account)")
+
+
+def _values(vals) -> str:
+    return ", ".join(f"{k} = {v:.4g}" for k, v in vals.items() if k != "rho_l")
+
+
+def _separate(sep) -> str:
+    if not sep:
+        return "no run of the dataset's drive at another load told them apart"
+    where = f"{sep['voltage'] / 1e3:.3g} kV against {sep['force']:.3g} N"
+    if not sep["tells"]:
+        return (f"no tested voltage at loads of half the lightest to 1.5x the heaviest tells them apart (at most "
+                f"{sep['rms_difference'] * 1e6:.3g} um RMS, {sep['noise_ratio']:.1f} noises, at {where})")
+    return (f"a recording at {where}{' (a tested condition)' if sep['tested'] else ''} would tell them apart (their "
+            f"strokes differ by {sep['rms_difference'] * 1e6:.3g} um RMS there, {sep['noise_ratio']:.1f} noises)")
+
+
+def alternatives_phrases(D) -> list:
+    """Each kept entry a rival explains the data as well as (alternatives.py), and the
+    recording that would tell them apart."""
+    return [f"{a['rival']} ({_values(a['alternative']['values'])}) in place of {a['entry']} "
+            f"({_values(a['kept']['values'])}) fits these data as well ({_worst_um(a['alternative'])} against "
+            f"{_worst_um(a['kept'])}): {_separate(a['separate_at'])} (alternatives)"
+            for a in getattr(D, "alternatives", None) or []]
+
+
+def _worst_um(rec) -> str:
+    h = rec["heldout_rmse"]
+    return f"{max(rec['train_rmse'], h if h is not None else 0.0) * 1e6:.3g} um"
+
+
+def alternatives_lines(alts) -> list:
+    """report.md's section on the alternatives (alternatives.py)."""
+    if not alts:
+        return []
+    L = ["", "## Alternatives these data cannot tell apart", "",
+         "A rival of another entry fitted nearly as well in the round that kept the entry; swapped in for it and "
+         "refitted, it explains the data as well. The choice between them rests on a fraction of a noise:", "",
+         "| kept | values | rival | values | train / held out (um), kept | rival | tells them apart |",
+         "|---|---|---|---|---|---|---|"]
+    for a in alts:
+        k, r = a["kept"], a["alternative"]
+        um = (lambda x: "-" if x is None else f"{x * 1e6:.3g}")
+        L.append(f"| {a['entry']} | {_values(k['values'])} | {a['rival']} | {_values(r['values'])} | "
+                 f"{um(k['train_rmse'])} / {um(k['heldout_rmse'])} | {um(r['train_rmse'])} / {um(r['heldout_rmse'])} "
+                 f"| {_separate(a['separate_at'])} |")
+    return L
 
 
 def gain_account_lines(a) -> list:
@@ -769,6 +818,7 @@ def to_markdown(D, report: dict, plots: dict) -> str:
     for k, v in D.final.values.items():
         L.append(f"| {k} | {getattr(D.dataset.params, k, '-')} | {v:.4g} | {D.final.stderr[k]:.2g} |")
     L += gain_account_lines(report.get("gain_account"))
+    L += alternatives_lines(report.get("alternatives"))
     L += ["", "## Where the baseline misses", ""]
     sysw = [w for w in D.windows if w.systematic]
     if not sysw:

@@ -43,6 +43,7 @@ CHECK_EXTRA = 1      # ... and the resolution check's deeper checks (a cut that 
 #                      resistance (unipolar, lab_fine) cut 45 % at N = 81, 25 % at 161 - and 15 % at 321: dropped
 TIE_SHARE = 0.9      # an accepted rival of another entry with this share of the best's BIC fall or more is
 #                      compared with it at twice the elements before one is kept (_tie_break)
+TIE_TOP = 2          # ... at most this many such rivals, one per entry (the best form of each), by BIC
 SHAPE_BIC = 6.0      # a flexible form takes one knot more when the BIC (which already charges each parameter
 #                      ln n) falls by more than this: "strong" evidence on the BIC scale
 SHAPE_DONE = 1.1     # ... while its error (held out, else training) is above this many sensor noises
