@@ -180,10 +180,19 @@ def again_phrase(D) -> str | None:
     if not a:
         return None
     s, r1, rec = a["self_error"], a["first"], a.get("check") or {}
-    what = " + ".join(r1["missing_physics"] + r1["corrections"])
-    head = (f"the resolution check again at N = {a['N_again']} (the dataset's {a['N_nominal']}): the final model "
-            f"({what} at N = {r1['N_final']}) was {s['rmse'] * 1e6:.3g} um off its own solution at N = {s['N_ref']} "
-            f"({s['ratio']:.1f}x the sensor noise)")
+    what = " + ".join(r1["missing_physics"] + r1["corrections"]) or "the baseline"
+    off = (f"({what} at N = {r1['N_final']}) was {s['rmse'] * 1e6:.3g} um off its own solution at N = {s['N_ref']} "
+           f"({s['ratio']:.1f}x the sensor noise)")
+    if rec.get("refit"):       # no physics kept: the final model refitted at N_again
+        head = f"the final model {off}"
+        if a["taken"]:
+            return (f"{head}: refitted at N = {a['N_again']} it fits better ({_worst_um(a['first'])} -> "
+                    f"{_worst_um(a['second'])}); the final model is at N = {a['second']['N_final']} (diagnosed_again)")
+        if rec.get("error"):
+            return f"{head}, and its refit at N = {a['N_again']} could not run ({rec['error']}) (diagnosed_again)"
+        return (f"{head}: refitted at N = {a['N_again']} it fits no better ({rec['rmse'] * 1e6:.3g} um): the first "
+                f"outcome stands (diagnosed_again)")
+    head = f"the resolution check again at N = {a['N_again']} (the dataset's {a['N_nominal']}): the final model {off}"
     dropped = (rec.get("dropped") or []) + (rec.get("dropped_marginal") or [])
     if rec.get("error"):
         return f"{head}, and the check could not run ({rec['error']}): the first outcome stands (diagnosed_again)"
@@ -194,6 +203,11 @@ def again_phrase(D) -> str | None:
         return (f"{head}: {what} holds there and fits better; the final model is at N = {a['second']['N_final']} "
                 f"(diagnosed_again)")
     return f"{head}: {what} holds there, and the finer model fits no better: the first outcome stands (diagnosed_again)"
+
+
+def _worst_um(run) -> str:
+    h = run["heldout_rmse"]
+    return f"{max(run['train_rmse'], h if h is not None else 0.0) * 1e6:.3g} um"
 
 
 def raised_phrases(raised: list) -> list:
