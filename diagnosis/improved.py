@@ -185,6 +185,13 @@ def again_phrase(D) -> str | None:
            f"({s['ratio']:.1f}x the sensor noise)")
     if rec.get("refit"):       # no physics kept: the final model refitted at N_again
         head = f"the final model {off}"
+        if rec.get("dropped"):
+            how = "better" if rec["baseline_rmse"] < rec["rmse"] else "as well"
+            return (f"{head}: at N = {a['N_again']} the baseline fits {how} ({rec['baseline_rmse'] * 1e6:.3g} um "
+                    f"against {rec['rmse'] * 1e6:.3g} um with {', '.join(rec['dropped'])}, which cut the error by "
+                    f"{rec['gain']:.0%} at N = {r1['N_final']} and {rec['gain_fine']:.0%} there): "
+                    f"{', '.join(rec['dropped'])} only took up the model's discretization error and the final model "
+                    f"is the baseline at N = {a['second']['N_final']} (diagnosed_again)")
         if a["taken"]:
             return (f"{head}: refitted at N = {a['N_again']} it fits better ({_worst_um(a['first'])} -> "
                     f"{_worst_um(a['second'])}); the final model is at N = {a['second']['N_final']} (diagnosed_again)")

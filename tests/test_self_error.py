@@ -86,8 +86,8 @@ def test_the_n_the_diagnosis_runs_again_at():
 OWN = {"N": 21, "N_ref": 81, "rmse": 8.96e-6, "rmse_fine": 4.65e-6, "ratio": 5.3, "flagged": True}
 
 
-def _fit(N, worst):
-    return NS(sigma=1.7e-6, params=NS(N=N), train_rmse=worst, heldout_rmse=0.9 * worst)
+def _fit(N, worst, bic=0.0):
+    return NS(sigma=1.7e-6, params=NS(N=N), train_rmse=worst, heldout_rmse=0.9 * worst, bic=bic)
 
 
 def _entry(key):
@@ -145,7 +145,9 @@ def test_without_physics_the_final_model_is_refitted_there_not_checked(again, mo
     """Nothing named (the baseline) or a nominal correction only: no check to run; the
     final model refitted at the N where it is within the noise of itself is the final model
     where it fits better (a nominal t_lz at N = 81 on the lab rig, 2.8 noises off itself:
-    4.31 -> 4.24 um at N = 161), else the first outcome stands."""
+    4.31 -> 4.24 um at N = 161), else the first outcome stands. Kept corrections must keep
+    their gain over the baseline there, as physics must at the resolution check: a unipolar
+    null's t_lz, 13 % at N = 81 and -25 % at 161, is dropped (the baseline at 161 final)."""
     import importlib
     from diagnosis.improved import again_phrase
     dg = importlib.import_module("diagnosis.diagnose")
@@ -168,12 +170,24 @@ def test_without_physics_the_final_model_is_refitted_there_not_checked(again, mo
             made.append(("kept", p.N, [e.key for e in kept]))
 
         def fit(self):
-            return _fit(161, 2.0e-6)
+            return _fit(161, 2.0e-6, bic=-5000.0)
     monkeypatch.setattr(dg, "_KeptFine", Kept)
     from dfa_model.io.recordings import Dataset
     ds = Dataset(folder=None, params=preset("vshape-table1").replace(N=21), recordings=[])
-    final = NS(sigma=1.7e-6, params=preset("vshape-table1").replace(N=21), train_rmse=2.48e-6, heldout_rmse=2.2e-6)
-    D = dg.Diagnosis(ds, _fit(21, 6e-6), final, [t_lz], [], [], [], 100.0, NS(), self_error=OWN)
-    D = dg._again(ds, D, None, lambda s: None, None, 0.0)
-    assert made[-1] == ("kept", 161, ["nominal:t_lz"]) and D.again["taken"] and calls == []
-    assert "the final model (nominal:t_lz at N = 21)" in again_phrase(D)
+    # the correction keeps its gain at N = 161 (the baseline 5.5 um there): refitted, taken;
+    # the baseline as good there: the correction only took up the grid's error, dropped
+    for fine_base, dropped in ((5.5e-6, False), (2.1e-6, True)):
+        monkeypatch.setattr(dg, "_fine_baseline", lambda ds, fb, ctx, f0, h, ex, fine=None, w=fine_base:
+                            made.append(("baseline", fb.N)) or _fit(fb.N, w))
+        final = NS(sigma=1.7e-6, params=preset("vshape-table1").replace(N=21), train_rmse=2.48e-6,
+                   heldout_rmse=2.2e-6, bic=-5000.0)
+        D = dg.Diagnosis(ds, _fit(21, 6e-6), final, [t_lz], [], [], [], 100.0, NS(), self_error=OWN)
+        D = dg._again(ds, D, None, lambda s: None, None, 0.0)
+        assert ("kept", 161, ["nominal:t_lz"]) in made and made[-1] == ("baseline", 161) and calls == []
+        assert D.again["taken"] and D.final.params.N == 161
+        assert [e.key for e in D.kept] == ([] if dropped else ["nominal:t_lz"])
+        assert D.again["check"].get("dropped") == (["nominal:t_lz"] if dropped else None)
+        text = again_phrase(D)
+        assert "the final model (nominal:t_lz at N = 21)" in text
+        assert ("only took up the model's discretization error" in text) == dropped
+        made.clear()
