@@ -27,7 +27,7 @@ import numpy as np
 
 from .catalog import NOMINAL, PHYSICS, _no_change
 from .fit import fit
-from .rules import RES_NFEV, UNEXPLAINED, _spec, _um, _worst_error
+from .rules import RES_NFEV, UNEXPLAINED, _spec, _um, _worst_error, _worst_um
 
 ALT_RATIO = 1.25     # a rival within this factor of the kept model's worst error explains the data as well
 TELLS = 3.0          # a condition tells two models apart when their strokes differ by this many noises (RMS)
@@ -136,3 +136,29 @@ def separating_condition(dataset, pa, pb, sigma) -> dict | None:
                         "noise_ratio": d / sigma, "tested": (V, F) in conds, "tells": d >= TELLS * sigma}
     return best
 
+
+
+def values_text(vals) -> str:
+    """An entry's own values, as the report gives them (rho_l, the baseline's, left out)."""
+    return ", ".join(f"{k} = {v:.4g}" for k, v in vals.items() if k != "rho_l")
+
+
+def separate_text(sep) -> str:
+    """Where the two models of an alternative differ most, in words."""
+    if not sep:
+        return "no run of the dataset's drive at another load told them apart"
+    where = f"{sep['voltage'] / 1e3:.3g} kV against {sep['force']:.3g} N"
+    if not sep["tells"]:
+        return (f"no tested voltage at loads of half the lightest to 1.5x the heaviest tells them apart (at most "
+                f"{sep['rms_difference'] * 1e6:.3g} um RMS, {sep['noise_ratio']:.1f} noises, at {where})")
+    return (f"a recording at {where}{' (a tested condition)' if sep['tested'] else ''} would tell them apart (their "
+            f"strokes differ by {sep['rms_difference'] * 1e6:.3g} um RMS there, {sep['noise_ratio']:.1f} noises)")
+
+
+def phrases(D) -> list:
+    """Each kept entry a rival explains the data as well as, and the recording that would
+    tell them apart: the conclusion's and improved.toml's clauses."""
+    return [f"{a['rival']} ({values_text(a['alternative']['values'])}) in place of {a['entry']} "
+            f"({values_text(a['kept']['values'])}) fits these data as well ({_worst_um(a['alternative'])} against "
+            f"{_worst_um(a['kept'])}): {separate_text(a['separate_at'])} (alternatives)"
+            for a in getattr(D, "alternatives", None) or []]

@@ -24,6 +24,9 @@ from dfa_model.io.fileio import write_text_atomic
 from dfa_model.io.parameters import applies
 from dfa_model.waveforms import Protocol
 
+from .alternatives import phrases as alternative_phrases
+from .rules import _worst_um
+
 NAME = "improved.toml"
 PROTOCOLS = "protocols"
 
@@ -112,6 +115,7 @@ def improved_toml(D, dataset_name: str | None = None) -> str:
     head += raised_phrases(getattr(D, "raised", None) or [])
     if again_phrase(D):
         head.append(again_phrase(D))
+    head += alternative_phrases(D)
     r = getattr(D, "resolution", None)
     if r and r.get("resolution_only"):
         head.append(f"N raised from {r['N']} to {r['N_fine']}: {', '.join(r['dropped'])} only took up the model's "
@@ -210,11 +214,6 @@ def again_phrase(D) -> str | None:
         return (f"{head}: {what} holds there and fits better; the final model is at N = {a['second']['N_final']} "
                 f"(diagnosed_again)")
     return f"{head}: {what} holds there, and the finer model fits no better: the first outcome stands (diagnosed_again)"
-
-
-def _worst_um(run) -> str:
-    h = run["heldout_rmse"]
-    return f"{max(run['train_rmse'], h if h is not None else 0.0) * 1e6:.3g} um"
 
 
 def raised_phrases(raised: list) -> list:

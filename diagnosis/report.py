@@ -9,6 +9,7 @@ import numpy as np
 
 from dfa_model.io.fileio import write_atomic, write_text_atomic
 
+from .alternatives import phrases as alternative_phrases, separate_text, values_text
 from .gain_account import PRIOR_SDS
 from .improved import again_phrase, entry_parameters, raised_phrases, write_improved, write_protocols
 from .levels import LEVEL_STEPS
@@ -218,7 +219,7 @@ def conclusion(D) -> str:
         parts.append("no missing physics found")
     if (gp := gain_account_phrase(D)):
         parts.append(gp)
-    parts += alternatives_phrases(D)
+    parts += alternative_phrases(D)
     if (sp := self_error_phrase(D)):
         parts.append(sp)
     if (ap := again_phrase(D)):
@@ -326,35 +327,6 @@ def gain_account_phrase(D) -> str | None:
             f"conditions recorded, the data would tell (gain_account)")
 
 
-def _values(vals) -> str:
-    return ", ".join(f"{k} = {v:.4g}" for k, v in vals.items() if k != "rho_l")
-
-
-def _separate(sep) -> str:
-    if not sep:
-        return "no run of the dataset's drive at another load told them apart"
-    where = f"{sep['voltage'] / 1e3:.3g} kV against {sep['force']:.3g} N"
-    if not sep["tells"]:
-        return (f"no tested voltage at loads of half the lightest to 1.5x the heaviest tells them apart (at most "
-                f"{sep['rms_difference'] * 1e6:.3g} um RMS, {sep['noise_ratio']:.1f} noises, at {where})")
-    return (f"a recording at {where}{' (a tested condition)' if sep['tested'] else ''} would tell them apart (their "
-            f"strokes differ by {sep['rms_difference'] * 1e6:.3g} um RMS there, {sep['noise_ratio']:.1f} noises)")
-
-
-def alternatives_phrases(D) -> list:
-    """Each kept entry a rival explains the data as well as (alternatives.py), and the
-    recording that would tell them apart."""
-    return [f"{a['rival']} ({_values(a['alternative']['values'])}) in place of {a['entry']} "
-            f"({_values(a['kept']['values'])}) fits these data as well ({_worst_um(a['alternative'])} against "
-            f"{_worst_um(a['kept'])}): {_separate(a['separate_at'])} (alternatives)"
-            for a in getattr(D, "alternatives", None) or []]
-
-
-def _worst_um(rec) -> str:
-    h = rec["heldout_rmse"]
-    return f"{max(rec['train_rmse'], h if h is not None else 0.0) * 1e6:.3g} um"
-
-
 def alternatives_lines(alts) -> list:
     """report.md's section on the alternatives (alternatives.py)."""
     if not alts:
@@ -367,9 +339,9 @@ def alternatives_lines(alts) -> list:
     for a in alts:
         k, r = a["kept"], a["alternative"]
         um = (lambda x: "-" if x is None else f"{x * 1e6:.3g}")
-        L.append(f"| {a['entry']} | {_values(k['values'])} | {a['rival']} | {_values(r['values'])} | "
+        L.append(f"| {a['entry']} | {values_text(k['values'])} | {a['rival']} | {values_text(r['values'])} | "
                  f"{um(k['train_rmse'])} / {um(k['heldout_rmse'])} | {um(r['train_rmse'])} / {um(r['heldout_rmse'])} "
-                 f"| {_separate(a['separate_at'])} |")
+                 f"| {separate_text(a['separate_at'])} |")
     return L
 
 

@@ -174,3 +174,9 @@ def _prepared(base, entries, ctx):
 
 def _um(x):
     return "-" if x is None else f"{x * 1e6:.3g} um"
+
+
+def _worst_um(rec: dict) -> str:
+    """The larger of a record's train_rmse and heldout_rmse (report dicts), in um."""
+    h = rec.get("heldout_rmse")
+    return _um(max(rec["train_rmse"], h if h is not None else 0.0))

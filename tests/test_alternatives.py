@@ -78,7 +78,7 @@ def test_a_rival_that_explains_the_data_as_well_is_reported(monkeypatch, one_loa
     (a,) = out
     assert a["entry"] == "nominal:t_lz" and a["rival"] == "stiffness" and a["alternative"]["values"] == {"k": 56.0}
     assert a["separate_at"]["force"] == 2.5 and a["separate_at"]["tells"]
-    phrase = report.alternatives_phrases(NS(alternatives=out))[0]
+    phrase = alt.phrases(NS(alternatives=out))[0]
     assert phrase.startswith("stiffness (k = 56) in place of nominal:t_lz (t_lz = 1.114e-05) fits these data as well")
     assert "a recording at 7 kV against 2.5 N would tell them apart" in phrase
     md = "\n".join(report.alternatives_lines(out))
