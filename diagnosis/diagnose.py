@@ -57,7 +57,7 @@ from .alternatives import alternatives
 from .catalog import NOMINAL, PHYSICS, Context, baseline_spec
 from .convergence import value_check
 from .fit import fit, heldout_common_gain, local_executor
-from .gain_account import gain_account
+from .gain_account import drop_stand_in, gain_account
 from .self_error import again_N, self_check
 from .levels import voltage_levels
 from .locate import locate
@@ -281,7 +281,7 @@ def _again_out(dataset, D, kept, current, f0, holdout, executor, refits, say, wa
         out = replace(D)       # no physics, nothing changed: the first outcome's finishing steps stand
     else:
         out = _finish(dataset, D.context, kept, current, f0, holdout, executor, refits, say,
-                      replace(D, kept=kept, final=current))
+                      replace(D, kept=kept, final=current), rec)
     out.wall_time = time.perf_counter() - wall
     out.again = {"N_nominal": dataset.params.N, "N_again": N2, "self_error": s, "check": rec, "first": first,
                  "second": _run_record(out), "taken": out.final is not D.final}
@@ -297,17 +297,26 @@ def _run_record(D) -> dict:
             "wall_time": D.wall_time}
 
 
-def _finish(dataset, ctx, kept, current, f0, holdout, executor, refits, say, D) -> Diagnosis:
+def _finish(dataset, ctx, kept, current, f0, holdout, executor, refits, say, D, check=None) -> Diagnosis:
     """The steps after the selection's checks, on the kept model `current`: its values
     followed in N, training error resolved, cold refit, the held-out calibration, the
     stiffness against the monitors, its own discretization error; D with them (its
-    baseline the finer one when the training raise took the baseline there)."""
+    baseline the finer one when the training raise took the baseline there). A stiffness
+    the resolution check (D.resolution, or `check`: the check again's record) kept on the
+    training recordings alone is dropped where the monitors' common gains fit them as well
+    (gain_account.drop_stand_in)."""
     current, values = value_check(dataset, ctx, kept, current, refits, holdout, executor, say)
     f_in = f0
     current, f0, trained = _raise_training(dataset, ctx, kept, current, f0, holdout, executor, refits, say)
     current, cold = _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say)
-    calibration = _calibration(dataset, current, executor, say)
     account = gain_account(dataset, ctx, kept, current, holdout, executor, say)
+    if account and account.get("separable") is False and \
+            any(((r or {}).get("training") or {}).get("holds") for r in (D.resolution, check)):
+        try:
+            kept, current = drop_stand_in(dataset, ctx, kept, current, account, holdout, executor, say)
+        except Exception as exc:     # the model without it cannot be refitted: it stands, flagged as before
+            account["drop_error"] = f"{type(exc).__name__}: {exc}"
+    calibration = _calibration(dataset, current, executor, say)
     own_error = self_check(dataset, current, executor, say)
     final_windows = locate(dataset, current) if current is not f0 else None
     return replace(D, baseline=f0 if f0 is not f_in else D.baseline, final=current, kept=kept,

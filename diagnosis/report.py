@@ -320,6 +320,12 @@ def gain_account_phrase(D) -> str | None:
     sd = min(c["prior_sd"] for c in a["conditions"])
     need = max(abs(c["gain"]) for c in a["conditions"])
     which = " and ".join(a["entries"])
+    if a.get("dropped"):
+        return (f"{which} dropped: the resolution check kept it on the training recordings alone (the held-out "
+                f"condition near the noise), and without it each training condition's monitor reading off by a "
+                f"common gain ({gains}; prior SD {sd:.2%} or more) fits them as well ({a['train_rmse'] * 1e6:.3g} um "
+                f"against {a['train_rmse_kept'] * 1e6:.3g} um) - with the monitors calibrated to better than "
+                f"{need:.2%}, or another condition held out, the data would tell (gain_account)")
     return (f"{which} cannot be told from the voltage monitors' calibration in these recordings: the final model "
             f"without it, each training condition's monitor reading off by a common gain ({gains}; prior SD "
             f"{sd:.2%} or more), fits them as well ({a['train_rmse'] * 1e6:.3g} um against "
@@ -366,6 +372,9 @@ def gain_account_lines(a) -> list:
     verdict = ("The recordings cannot tell the two apart: calibrate the monitors to better than the gains above, or "
                "record more conditions." if not a["separable"] else f"The gains do not stand in for it{why}: {which} "
                "stands.")
+    if a.get("dropped"):
+        verdict += (f" The resolution check had kept {which} on the training recordings alone (the held-out "
+                    f"condition near the noise): it is dropped, and the final model is the rest refitted without it.")
     return L + ["", f"Training RMSE {a['train_rmse'] * 1e6:.3g} um against {a['train_rmse_kept'] * 1e6:.3g} um with "
                 f"{which}. {verdict}"]
 

@@ -137,3 +137,52 @@ def test_common_gains_are_refused_with_held_out_recordings():
     """A held-out condition's common gain fitted on its own recordings is not a held-out test."""
     with pytest.raises(ValueError, match="common_gain"):
         fit(None, [], common_gain=True)
+
+
+def test_a_stiffness_kept_on_the_training_recordings_alone_is_dropped_where_the_gains_fit_as_well(monkeypatch):
+    """diagnose._finish: a stiffness the resolution check kept on the training gains alone
+    (resolution.training.holds: the held-out condition near the noise) is dropped where the
+    account finds it not separable - the unipolar null (lab_fine, 5-8 kV at 5 N) named as
+    k = 14.4 N/m - and stands where it is separable (a real 33.9 N/m: the gains it would need,
+    +0.76 %, lie beyond their prior) or where the held-out check kept it. Steps stubbed."""
+    import importlib
+    dg = importlib.import_module("diagnosis.diagnose")
+    p = preset("vshape-table1").replace(N=161, k=14.4)
+    current = NS(params=p, train=["a"], train_rmse=1.79e-6, heldout_rmse=1.62e-6)
+    without = NS(params=p.replace(k=0.0), train=["a"], train_rmse=1.8e-6, heldout_rmse=1.71e-6)
+    monkeypatch.setattr(dg, "value_check", lambda ds, ctx, kept, cur, *a: (cur, None))
+    monkeypatch.setattr(dg, "_raise_training", lambda ds, ctx, kept, cur, f0, *a: (cur, f0, []))
+    monkeypatch.setattr(dg, "_cold_refit", lambda ds, ctx, kept, cur, *a: (cur, None))
+    monkeypatch.setattr(dg, "_calibration", lambda ds, cur, ex, say: None)
+    monkeypatch.setattr(dg, "self_check", lambda ds, cur, ex, say: None)
+    monkeypatch.setattr(dg, "locate", lambda ds, f: [])
+    refits = []
+
+    def fake_fit(dataset, spec, base=None, warm=None, **kw):
+        refits.append(([fp.key for fp in spec], base.k))
+        return without
+    monkeypatch.setattr(ga, "fit", fake_fit)
+    ds = NS(params=preset("vshape-table1").replace(N=21), recordings=[])
+    ctx = Context(8000.0, 6000.0, 5.5e7)
+    for separable, training, dropped in ((False, True, True), (True, True, False), (False, False, False)):
+        account = {"entries": ["stiffness"], "separable": separable, "conditions": []}
+        monkeypatch.setattr(dg, "gain_account", lambda *a, acc=account: dict(acc))
+        res = {"training": {"holds": True}} if training else {"gain": 0.3, "gain_fine": 0.25}
+        D = NS(resolution=res, raised=[], baseline=NS())
+        monkeypatch.setattr(dg, "replace", lambda D, **kw: NS(**{**vars(D), **kw}))
+        out = dg._finish(ds, ctx, [STIFFNESS], current, NS(), None, None, [], lambda s: None, D)
+        assert (out.kept == []) == dropped and (out.final is without) == dropped
+        assert bool(out.gain_account.get("dropped")) == dropped
+    assert refits == [(["rho_l"], 0.0)]          # the baseline's spec, k back at the nominal 0
+    # the check again's record counts as well
+    account = {"entries": ["stiffness"], "separable": False, "conditions": []}
+    monkeypatch.setattr(dg, "gain_account", lambda *a: dict(account))
+    out = dg._finish(ds, ctx, [STIFFNESS], current, NS(), None, None, [], lambda s: None,
+                     NS(resolution=None, raised=[], baseline=NS()), {"training": {"holds": True}})
+    assert out.kept == [] and out.gain_account["dropped"]
+    phrase = gain_account_phrase(NS(gain_account={**out.gain_account, "train_rmse": 1.56e-6,
+                                                  "train_rmse_kept": 1.79e-6, "fits_as_well": True,
+                                                  "within_prior": True,
+                                                  "conditions": [{"voltage": 5e3, "force": 5.0, "gain": -7e-4,
+                                                                  "prior_sd": 2.9e-3}]}))
+    assert phrase.startswith("stiffness dropped: the resolution check kept it on the training recordings alone")

@@ -110,7 +110,8 @@ def again(monkeypatch):
         calls.append({"N": base.N, "Nf": Nf, "every": every, "kept": [e.key for e in kept]})
         return check["out"](kept, current)
     monkeypatch.setattr(dg, "_resolution_check", resolution_check)
-    monkeypatch.setattr(dg, "_finish", lambda dataset, ctx, kept, current, f0, holdout, executor, refits, say, D: D)
+    monkeypatch.setattr(dg, "_finish", lambda dataset, ctx, kept, current, f0, holdout, executor, refits, say, D,
+                        check=None: D)
     ds = Dataset(folder=None, params=preset("vshape-table1").replace(N=21), recordings=[])
 
     def run(kept=(branch, law)):
