@@ -199,8 +199,8 @@ def _again(dataset, D, executor, say, holdout, wall) -> Diagnosis:
     better (RES_BETTER). D's own resolution record stays; `again` records this check and the
     first run's outcome. D when nothing is checked again."""
     N2 = again_N(D.self_error, dataset.params.N, D.final)
-    if N2 is None:
-        return D
+    if N2 is None or not (D.missing_physics or D.held_out):
+        return D       # nothing held out: the final model stays the baseline (module docstring, step 5)
     s, N = D.self_error, D.final.params.N
     say(f"the final model is {_um(s['rmse'])} off its own solution at N = {s['N_ref']} ({s['ratio']:.1f}x the "
         f"noise) and leaves {_um(_worst_error(D.final))}: " + (f"the resolution check again at N = {N2}"

@@ -87,7 +87,7 @@ OWN = {"N": 21, "N_ref": 81, "rmse": 8.96e-6, "rmse_fine": 4.65e-6, "ratio": 5.3
 
 
 def _fit(N, worst, bic=0.0):
-    return NS(sigma=1.7e-6, params=NS(N=N), train_rmse=worst, heldout_rmse=0.9 * worst, bic=bic)
+    return NS(sigma=1.7e-6, params=NS(N=N), train_rmse=worst, heldout_rmse=0.9 * worst, bic=bic, heldout=["r"])
 
 
 def _entry(key):
@@ -192,3 +192,7 @@ def test_without_physics_the_final_model_is_refitted_there_not_checked(again, mo
         assert "the final model (nominal:t_lz at N = 21)" in text
         assert ("only took up the model's discretization error" in text) == dropped
         made.clear()
+    # nothing held out (one condition): the final model stays the baseline, nothing refitted
+    D = dg.Diagnosis(ds, NS(**{**vars(_fit(21, 6e-6)), "heldout": []}), final, [], [], [], [], 100.0, NS(),
+                     self_error=OWN)
+    assert dg._again(ds, D, None, lambda s: None, None, 0.0) is D and made == []
