@@ -227,8 +227,8 @@ def _again(dataset, D, executor, say, holdout, wall) -> Diagnosis:
                 say(f"{' + '.join(e.key for e in kept)} refitted at N = {N2} fits better ({_um(_error(D.final))} -> "
                     f"{_um(_error(g))}): the final model is there")
     except Exception as exc:      # the check cannot run: the first outcome stands
-        rec, kept, current = {"error": f"{type(exc).__name__}: {exc}", **({} if D.missing_physics else {"refit": True})}, \
-            D.kept, D.final
+        rec = {"error": f"{type(exc).__name__}: {exc}", **({} if D.missing_physics else {"refit": True})}
+        kept, current = D.kept, D.final
     return _again_out(dataset, D, kept, current, f0, holdout, executor, refits, say, wall, N2, s, rec)
 
 
@@ -259,10 +259,11 @@ def _again_without_physics(dataset, D, N2, holdout, executor, refits, say) -> tu
         gain, gain_fine = 1.0 - _error(D.final) / _error(f0), 1.0 - _error(g) / _error(ff)
         rec, kept, current = {"refit": True, "N": N2, "rmse": _error(g), "baseline_rmse": _error(ff), "gain": gain,
                               "gain_fine": gain_fine}, D.kept, D.final
-        training = None if _keeps(g, ff, gain) else _training_opinion(f0, D.final, ff, g)
+        keeps = _keeps(g, ff, gain)
+        training = None if keeps else _training_opinion(f0, D.final, ff, g)
         if training:
             rec["training"] = training
-        if not _keeps(g, ff, gain) and not (training and training["holds"]):
+        if not keeps and not (training and training["holds"]):
             rec["dropped"] = [e.key for e in D.kept]
             say(f"{' + '.join(rec['dropped'])} cut the error by {gain:.0%} at N = {D.final.params.N}, by "
                 f"{gain_fine:.0%} at N = {N2} ({_um(_error(ff))} without): it took up the model's discretization "

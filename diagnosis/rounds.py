@@ -8,9 +8,9 @@ from .fit import fit
 from .locate import condition_trends, locate
 from .resolution import _raise_kept, _retry_finer
 from .rules import (
-    BIC_MIN, CANDIDATE_NFEV, CHECK_EXTRA, HELDOUT_MIN, LATE_TOP, MAX_ROUNDS, RAISE_MAX, RES_NFEV, SCREEN_HELDOUT, SCREEN_REL,
-    SCREEN_SKIP, SCREEN_TOP, SHAPE_BIC, SHAPE_NFEV, START_NFEV, STRONG_ERROR, TIE_SHARE, TIE_TOP, _accept, _at_noise,
-    _beyond_reach, _evidence, fine_N, _name, _near_noise, _spec, _strong, _um, _unexplained,
+    BIC_MIN, CANDIDATE_NFEV, CHECK_EXTRA, HELDOUT_MIN, LATE_TOP, MAX_ROUNDS, RAISE_MAX, RES_NFEV, SCREEN_HELDOUT,
+    SCREEN_REL, SCREEN_SKIP, SCREEN_TOP, SHAPE_BIC, SHAPE_NFEV, START_NFEV, STRONG_ERROR, TIE_SHARE, TIE_TOP, _accept,
+    _at_noise, _beyond_reach, _evidence, fine_N, _name, _near_noise, _spec, _strong, _um, _unexplained,
 )
 from .screen import Screen, predicted_delta_bic, probes
 
