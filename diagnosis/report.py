@@ -340,7 +340,8 @@ def alternatives_lines(alts) -> list:
     L = ["", "## Alternatives these data cannot tell apart", "",
          "A rival of another entry fitted nearly as well in the round that kept the entry; swapped in for it and "
          "refitted, it explains the data as well. The choice between them rests on a fraction of a noise:", "",
-         "| kept | values | rival | values | train / held out (um), kept | rival | tells them apart |",
+         "| kept entry | its values | rival | its values | kept: train / held out (um) | rival: train / held out (um) "
+         "| what would tell them apart |",
          "|---|---|---|---|---|---|---|"]
     for a in alts:
         k, r = a["kept"], a["alternative"]
