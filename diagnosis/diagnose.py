@@ -210,22 +210,22 @@ def _again(dataset, D, executor, say, holdout, wall) -> Diagnosis:
     try:
         if not D.missing_physics:
             kept, current, rec = _again_without_physics(dataset, D, N2, holdout, executor, refits, say)
-            return _again_out(dataset, D, kept, current, f0, holdout, executor, refits, say, wall, N2, s, rec)
-        if f0.params.N != N:       # the check compares the kept model with the baseline at its own N
-            f0 = _fine_baseline(dataset, base, D.context, f0, holdout, executor)
-        kept, current, rec = _resolution_check(dataset, base, D.context, D.kept, D.final, f0, holdout, executor, say,
-                                               refits=refits, Nf=N2, every=True)
-        if current is D.final and any(e.kind == "physics" for e in kept):
-            # the kept set stood at N2 without a refit there (the baseline fitting no better at N2
-            # leaves the check inconclusive): refitted there, it is the final model where it fits
-            # better (RES_BETTER, as the check's `refined`). A spline law at N = 21, 17 noises off
-            # itself, left 2.76 um in training; at N = 161, 1.10 um
-            g = _KeptFine(dataset, D.final.params.replace(N=N2), D.context, kept, D.final, holdout, executor,
-                          refits).fit()
-            if _error(g) < RES_BETTER * _error(D.final):
-                current, rec["refined"] = g, True
-                say(f"{' + '.join(e.key for e in kept)} refitted at N = {N2} fits better ({_um(_error(D.final))} -> "
-                    f"{_um(_error(g))}): the final model is there")
+        else:
+            if f0.params.N != N:       # the check compares the kept model with the baseline at its own N
+                f0 = _fine_baseline(dataset, base, D.context, f0, holdout, executor)
+            kept, current, rec = _resolution_check(dataset, base, D.context, D.kept, D.final, f0, holdout, executor,
+                                                   say, refits=refits, Nf=N2, every=True)
+            if current is D.final and any(e.kind == "physics" for e in kept):
+                # the kept set stood at N2 without a refit there (the baseline fitting no better at N2
+                # leaves the check inconclusive): refitted there, it is the final model where it fits
+                # better (RES_BETTER, as the check's `refined`). A spline law at N = 21, 17 noises off
+                # itself, left 2.76 um in training; at N = 161, 1.10 um
+                g = _KeptFine(dataset, D.final.params.replace(N=N2), D.context, kept, D.final, holdout, executor,
+                              refits).fit()
+                if _error(g) < RES_BETTER * _error(D.final):
+                    current, rec["refined"] = g, True
+                    say(f"{' + '.join(e.key for e in kept)} refitted at N = {N2} fits better "
+                        f"({_um(_error(D.final))} -> {_um(_error(g))}): the final model is there")
     except Exception as exc:      # the check cannot run: the first outcome stands
         rec = {"error": f"{type(exc).__name__}: {exc}", **({} if D.missing_physics else {"refit": True})}
         kept, current = D.kept, D.final
