@@ -27,7 +27,7 @@ import numpy as np
 
 from .catalog import NOMINAL, PHYSICS, _no_change
 from .fit import fit
-from .rules import RES_NFEV, UNEXPLAINED, _spec, _um, _worst_error, _worst_um
+from .rules import RES_NFEV, UNEXPLAINED, _at_nominal, _spec, _um, _worst_error, _worst_rec, _worst_um
 
 ALT_RATIO = 1.25     # a rival within this factor of the kept model's worst error explains the data as well
 TELLS = 3.0          # a condition tells two models apart when their strokes differ by this many noises (RMS)
@@ -39,7 +39,7 @@ def alternatives(dataset, D, executor, say, holdout) -> list:
     kept: {train_rmse, heldout_rmse, values}, alternative: {...}, separate_at: {voltage,
     force, rms_difference, noise_ratio, tested, tells}}]; entries whose swap could not
     run or does not explain the data are left out."""
-    out = []
+    out, rivals = [], []
     by_key = {e.key: e for e in PHYSICS + NOMINAL}
     for e in D.kept:
         tie = _tie_of(D, e.key)
@@ -49,11 +49,18 @@ def alternatives(dataset, D, executor, say, holdout) -> list:
             r = by_key.get(key)
             if r is None or r.prepare is not _no_change or any(k.name == r.name for k in D.kept):
                 continue
-            if _worst(tie[key]) > ALT_RATIO * _worst(tie[e.key]):
+            if _worst_rec(tie[key]) > ALT_RATIO * _worst_rec(tie[e.key]):
                 continue
-            rec = _swap(dataset, D, e, r, tie[key], tie["N"], holdout, executor, say)
-            if rec is not None:
-                out.append(rec)
+            swapped = _swap(dataset, D, e, r, tie[key], tie["N"], holdout, executor, say)
+            if swapped is not None:
+                out.append(swapped[0])
+                rivals.append(swapped[1])
+    # the final model is run once per condition for every alternative
+    for rec, sep in zip(out, separating_conditions(dataset, D.final.params, rivals, D.final.sigma)):
+        rec["separate_at"] = sep
+        say(f"{rec['rival']} explains the data as well as {rec['entry']}"
+            + (f": a recording at {sep['voltage'] / 1e3:g} kV against {sep['force']:g} N would tell them apart "
+               f"({sep['noise_ratio']:.1f} noises)" if sep and sep["tells"] else ""))
     return out
 
 
@@ -66,18 +73,13 @@ def _tie_of(D, key):
     return None
 
 
-def _worst(rec) -> float:
-    h = rec.get("heldout_rmse")
-    return max(rec["train_rmse"], h if h is not None else 0.0)
-
-
 def _swap(dataset, D, e, r, rival, N_tie, holdout, executor, say):
     """The final model with entry e swapped for rival r (its tie record `rival`), refitted
-    at the final N: the alternative's record, or None (module docstring)."""
+    at the final N: (the alternative's record without `separate_at`, its fitted
+    Parameters), or None (module docstring)."""
     f, ctx = D.final, D.context
-    reset = {fp.key: getattr(D.baseline.params, fp.key) for fp in e.spec(f.params, ctx)}
     start = {fp.key: rival["values"][fp.key] for fp in r.spec(f.params, ctx) if fp.key in rival.get("values", {})}
-    pr = f.params.replace(**reset, **start)
+    pr = _at_nominal(f.params, [e], D.baseline.params, ctx).replace(**start)
     others = [k for k in D.kept if k is not e]
     say(f"{e.key} and {r.key} fitted alike at N = {N_tie}: {r.key} in its place refitted at N = "
         f"{f.params.N}")
@@ -91,13 +93,9 @@ def _swap(dataset, D, e, r, rival, N_tie, holdout, executor, say):
     if w > ALT_RATIO * wf or w >= UNEXPLAINED * g.sigma:
         say(f"{r.key} in place of {e.key} leaves {_um(w)} against {_um(wf)}: not an alternative")
         return None
-    sep = separating_condition(dataset, f.params, g.params, f.sigma)
-    say(f"{r.key} explains the data as well as {e.key} ({_um(w)} against {_um(wf)})"
-        + (f"; a recording at {sep['voltage'] / 1e3:g} kV against {sep['force']:g} N would tell them apart "
-           f"({sep['noise_ratio']:.1f} noises)" if sep and sep["tells"] else ""))
+    say(f"{r.key} in place of {e.key} leaves {_um(w)} against {_um(wf)}: an alternative")
     return {"entry": e.key, "rival": r.key, "N": f.params.N,
-            "kept": _summary(f, e.spec(f.params, ctx)), "alternative": _summary(g, r.spec(g.params, ctx)),
-            "separate_at": sep}
+            "kept": _summary(f, e.spec(f.params, ctx)), "alternative": _summary(g, r.spec(g.params, ctx))}, g.params
 
 
 def _summary(f, spec) -> dict:
@@ -105,11 +103,12 @@ def _summary(f, spec) -> dict:
             "values": {fp.key: f.values[fp.key] for fp in spec}}
 
 
-def separating_condition(dataset, pa, pb, sigma) -> dict | None:
-    """The condition where models pa and pb differ most (RMS stroke over a recording of
-    the dataset's drive): each tested voltage (its first recording's protocol and time
-    grid) against the tested loads, half the lightest and 1.5x the heaviest. None when no
-    run succeeds. {voltage, force, rms_difference (m), noise_ratio, tested, tells}."""
+def separating_conditions(dataset, pa, pbs, sigma) -> list:
+    """For each of the models pbs, the condition where it and model pa differ most (RMS
+    stroke over a recording of the dataset's drive): each tested voltage (its first
+    recording's protocol and time grid) against the tested loads, half the lightest and
+    1.5x the heaviest; pa is run once per condition. Each: {voltage, force,
+    rms_difference (m), noise_ratio, tested, tells}, or None when no run succeeded."""
     from dfa_model import simulate
     conds = dataset.conditions()            # (V, F) -> its recordings
     by_V = {}
@@ -117,26 +116,32 @@ def separating_condition(dataset, pa, pb, sigma) -> dict | None:
         by_V.setdefault(V, recs[0])
     loads = sorted({F for _, F in conds})
     trial = sorted(set(loads) | {round(0.5 * loads[0], 3), round(1.5 * loads[-1], 3)})
-    best = None
+    best = [None] * len(pbs)
+    if not pbs:
+        return best
+
+    def stroke(p, rec, F, t):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return simulate(p, rec.protocol, load=F, t_eval=t, warn=False).trace(t)
     for V, rec in by_V.items():
         t = rec.t[::STEP]
         for F in trial:
             if F <= 0:
                 continue
             try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    xa = simulate(pa, rec.protocol, load=F, t_eval=t, warn=False).trace(t)
-                    xb = simulate(pb, rec.protocol, load=F, t_eval=t, warn=False).trace(t)
-            except Exception:      # a condition either model cannot run: not a test to propose
+                xa = stroke(pa, rec, F, t)
+            except Exception:      # a condition the kept model cannot run: not a test to propose
                 continue
-            d = float(np.sqrt(np.mean((xa - xb) ** 2)))
-            if np.isfinite(d) and (best is None or d > best["rms_difference"]):
-                best = {"voltage": float(V), "force": float(F), "rms_difference": d,
-                        "noise_ratio": d / sigma, "tested": (V, F) in conds, "tells": d >= TELLS * sigma}
+            for i, pb in enumerate(pbs):
+                try:
+                    d = float(np.sqrt(np.mean((xa - stroke(pb, rec, F, t)) ** 2)))
+                except Exception:  # nor one the rival cannot run
+                    continue
+                if np.isfinite(d) and (best[i] is None or d > best[i]["rms_difference"]):
+                    best[i] = {"voltage": float(V), "force": float(F), "rms_difference": d,
+                               "noise_ratio": d / sigma, "tested": (V, F) in conds, "tells": d >= TELLS * sigma}
     return best
-
-
 
 def values_text(vals) -> str:
     """An entry's own values, as the report gives them (rho_l, the baseline's, left out)."""

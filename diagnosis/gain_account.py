@@ -27,7 +27,7 @@ from __future__ import annotations
 import time
 
 from .fit import condition_gains, fit
-from .rules import RES_NFEV, _error, _spec, _um
+from .rules import RES_NFEV, _at_nominal, _error, _spec, _um
 
 ENTRIES = ("stiffness",)   # kept entries a condition's common monitor gain can stand in for
 SAME_FIT = 1.02            # the gains' account fits as well: training RMSE within this share of the kept model's
@@ -45,8 +45,7 @@ def gain_account(dataset, ctx, kept, current, holdout, executor, say) -> dict | 
     if not stand_in or not current.train:
         return None
     rest = [e for e in kept if e not in stand_in]
-    p = current.params.replace(**{fp.key: getattr(dataset.params, fp.key) for e in stand_in
-                                  for fp in e.spec(current.params, ctx)})
+    p = _at_nominal(current.params, stand_in, dataset.params, ctx)
     names = " + ".join(e.key for e in stand_in)
     say(f"{names} against the monitors' calibration: the final model without it, each condition's common gain free "
         f"(N = {p.N})")
@@ -84,8 +83,7 @@ def drop_stand_in(dataset, ctx, kept, current, account, holdout, executor, say) 
     `dropped`."""
     gone = [e for e in kept if e.key in account["entries"]]
     rest = [e for e in kept if e not in gone]
-    p = current.params.replace(**{fp.key: getattr(dataset.params, fp.key) for e in gone
-                                  for fp in e.spec(current.params, ctx)})
+    p = _at_nominal(current.params, gone, dataset.params, ctx)
     g = fit(dataset, _spec(p, ctx, rest), base=p, holdout=holdout, executor=executor, warm=current,
             max_nfev=RES_NFEV)
     account["dropped"] = True

@@ -343,9 +343,9 @@ def alternatives_lines(alts) -> list:
          "| kept entry | its values | rival | its values | kept: train / held out (um) | rival: train / held out (um) "
          "| what would tell them apart |",
          "|---|---|---|---|---|---|---|"]
+    um = (lambda x: "-" if x is None else f"{x * 1e6:.3g}")
     for a in alts:
         k, r = a["kept"], a["alternative"]
-        um = (lambda x: "-" if x is None else f"{x * 1e6:.3g}")
         L.append(f"| {a['entry']} | {values_text(k['values'])} | {a['rival']} | {values_text(r['values'])} | "
                  f"{um(k['train_rmse'])} / {um(k['heldout_rmse'])} | {um(r['train_rmse'])} / {um(r['heldout_rmse'])} "
                  f"| {separate_text(a['separate_at'])} |")

@@ -176,7 +176,17 @@ def _um(x):
     return "-" if x is None else f"{x * 1e6:.3g} um"
 
 
-def _worst_um(rec: dict) -> str:
-    """The larger of a record's train_rmse and heldout_rmse (report dicts), in um."""
+def _worst_rec(rec: dict) -> float:
+    """_worst_error of a report record ({train_rmse, heldout_rmse})."""
     h = rec.get("heldout_rmse")
-    return _um(max(rec["train_rmse"], h if h is not None else 0.0))
+    return max(rec["train_rmse"], h if h is not None else 0.0)
+
+
+def _worst_um(rec: dict) -> str:
+    return _um(_worst_rec(rec))
+
+
+def _at_nominal(params, entries, nominal, ctx):
+    """params with the free parameters of `entries` (plain-parameter entries) back at the
+    values of `nominal`: the model without them."""
+    return params.replace(**{fp.key: getattr(nominal, fp.key) for e in entries for fp in e.spec(params, ctx)})

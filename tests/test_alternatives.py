@@ -34,10 +34,10 @@ def test_a_lighter_load_tells_a_stiffness_from_a_nominal_t_lz(one_load):
     stiffness's force grows with it). Identical models: nothing tells them apart."""
     p = preset("vshape-table1").replace(N=21)
     a, b = p.replace(rho_l=1.93e12, t_lz=1.114e-5), p.replace(rho_l=1.91e12, k=55.96)
-    sep = alt.separating_condition(one_load, a, b, 1e-6)
+    sep = alt.separating_conditions(one_load, a, [b], 1e-6)[0]
     assert sep["force"] == 2.5 and not sep["tested"] and sep["tells"]
     assert sep["voltage"] == 7000.0 and sep["rms_difference"] > 10e-6
-    same = alt.separating_condition(one_load, a, a, 1e-6)
+    same = alt.separating_conditions(one_load, a, [a], 1e-6)[0]
     assert same["rms_difference"] == 0.0 and not same["tells"]
 
 
