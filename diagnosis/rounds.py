@@ -96,13 +96,17 @@ def _select(dataset, base, ctx, f0, pool, raised, fine, rounds, refits, holdout,
             #                      leaves the held-out error near the noise (nothing a rival could do much better)
             strong = _strong(current)
             weak = set(shortlist(screens)) if strong else None     # shortlisted on their own screens
-            for key, late in _queue(shortlist(screens, strong), screens, fits, current, strong):
+            listed, raced = _race(dataset, shortlist(screens, strong), screens, prepared, kept, ctx, weak, holdout,
+                                  executor, current, say, rnd)
+            for key, late in _queue(listed, screens, fits, current, strong):
                 e, p = prepared[key]
                 rival = any(_name(k) == _name(key) for k in fits)     # a form of its entry is fitted: they compete
-                if best_fall < 0 and not rival and SCREEN_SKIP * _entry_prediction(screens, key) > best_fall:
+                if best_fall < 0 and not rival and SCREEN_SKIP * _hope(screens, key, raced, current) > best_fall:
                     # even SCREEN_SKIP times its predicted fall would not beat an accepted one
                     ev[key]["skipped"] = (f"{SCREEN_SKIP:g} x its predicted BIC fall is short of an accepted "
                                           "candidate's")
+                    if key in raced:
+                        ev[key]["raced"] = _race_record(raced[key], current)
                     continue
                 spec = _spec(p, ctx, [*kept, e])
                 say(f"round {rnd + 1}: fitting {e.key}" + (" (a strong screen the round's best share left out, a few "
@@ -110,7 +114,7 @@ def _select(dataset, base, ctx, f0, pool, raised, fine, rounds, refits, holdout,
                 # a form fitted only because the mismatch is large is judged by a few iterations first
                 judge = None if not late and (weak is None or key in weak) else (lambda f: _probe_passes(f, current))
                 best, errors, stopped = _multistart(dataset, spec, p, e.starts(p, ctx) if e.starts else [{}],
-                                                    holdout, executor, current, judge)
+                                                    holdout, executor, current, judge, raced.get(key))
                 if best is None:
                     ev[key] = {"screen": screens[key], "fitted": False, "error": "; ".join(errors)}
                     continue
@@ -128,6 +132,8 @@ def _select(dataset, base, ctx, f0, pool, raised, fine, rounds, refits, holdout,
                                           f"{SCREEN_HELDOUT:.0%}: not fitted further")
                 if shape:
                     ev[key]["shape"] = shape
+                if key in raced:
+                    ev[key]["raced"] = _race_record(raced[key], current)
                 if _accept(best, current) and _near_noise(best):
                     best_fall = min(best_fall, best.bic - current.bic)
             _through_rival(dataset, fits, prepared, ev, kept, current, ctx, holdout, executor, say)
@@ -192,17 +198,10 @@ def _cut_strong(screens, listed) -> list:
     return [k for nm in names[:LATE_TOP] for k in screens if _name(k) == nm]
 
 
-def _multistart(dataset, spec, p, starts, holdout, executor, warm, judge=None):
+def _probe(dataset, spec, p, starts, holdout, executor, warm, probe, held_out) -> tuple:
     """The candidate's fit from each of its starts (start values on p, warm from the
-    current fit): with more than one start, or a `judge`, each runs START_NFEV evaluations
-    and only the best (least cost) goes on to CANDIDATE_NFEV in all, resumed where it
-    stopped; with a judge, the best of those judge(fit) passes, and none when it passes
-    none. Returns (the best fit or None, the errors of the starts the model could not
-    run, whether the judge stopped it)."""
-    probe = START_NFEV if len(starts) > 1 or judge is not None else CANDIDATE_NFEV
-    # racing starts are compared by their cost alone: their held-out recordings are fitted
-    # only by the leader's search (a branch's two starts behind a series resistance: 2 x 24 s)
-    held_out = judge is not None or probe == CANDIDATE_NFEV
+    current fit), `probe` evaluations each: (the fits, the errors of the starts the model
+    could not run)."""
     ends, errors = [], []
     for st in starts:
         try:
@@ -212,6 +211,79 @@ def _multistart(dataset, spec, p, starts, holdout, executor, warm, judge=None):
                             warm=warm, max_nfev=probe, held_out=held_out, demean=bool(st)))
         except Exception as exc:   # a candidate the model cannot run: evidence says why
             errors.append(f"{type(exc).__name__}: {exc}")
+    return ends, errors
+
+
+def _race(dataset, listed, screens, prepared, kept, ctx, weak, holdout, executor, current, say, rnd) -> tuple:
+    """The shortlist in the order its candidates are fitted, and the probes that ordered
+    it {key: (fits, errors)}. The shortlist is ordered by the screens' one linearized step,
+    and a candidate is skipped when SCREEN_SKIP times its predicted BIC fall is short of an
+    accepted one's (near the noise): the first one fitted is never skipped. Where the best
+    forms of two entries or more predict falls within SCREEN_SKIP of the best one's, the
+    screen cannot order them: each (its best form, fitted without a judge) runs
+    START_NFEV evaluations from its starts first, the leaders by cost are fitted first (from
+    where their probes stopped), and the rest keep the screens' order. On the issue-size
+    combined case with the truth at 4x N, a field law's Eq. (21) (predicted fall 17167)
+    led a polarization branch (16837) behind the series resistance: its full fit took 124
+    s for a fall of 806; the branch's then fell 37187 to 1.1 noises."""
+    best_of = {}
+    for k in listed:
+        if _name(k) not in best_of:
+            best_of[_name(k)] = k
+    top = min((screens[k]["predicted_delta_bic"] for k in best_of.values()), default=0.0)
+    contenders = [k for k in best_of.values() if (weak is None or k in weak)
+                  and SCREEN_SKIP * screens[k]["predicted_delta_bic"] <= top]
+    if len(contenders) < 2:
+        return listed, {}
+    raced = {}
+    for k in contenders:
+        e, p = prepared[k]
+        say(f"round {rnd + 1}: probing {k} ({START_NFEV} evaluations: the screens cannot order "
+            f"{' and '.join(contenders)})")
+        raced[k] = _probe(dataset, _spec(p, ctx, [*kept, e]), p, e.starts(p, ctx) if e.starts else [{}], holdout,
+                          executor, current, START_NFEV, False)
+    cost = {k: min((f.cost for f in raced[k][0]), default=float("inf")) for k in contenders}
+    order = sorted(contenders, key=lambda k: cost[k])
+    # the raced entries' forms, led by the race, then the rest as the screens had them
+    first = [x for k in order for x in listed if _name(x) == _name(k)]
+    return first + [x for x in listed if x not in first], raced
+
+
+def _hope(screens, key, raced, current) -> float:
+    """The BIC fall a candidate may still reach, for the skip rule: its entry's best
+    screen, or where its probe (_race) got further, that (a fit's cost only falls as it
+    goes on)."""
+    pred = _entry_prediction(screens, key)
+    ends = raced.get(key, ((), ()))[0]
+    return min([pred] + [f.bic - current.bic for f in ends])
+
+
+def _race_record(probed, current) -> dict:
+    """What a candidate's probe (_race) reached: its best start's BIC change after
+    START_NFEV evaluations, or the errors."""
+    ends, errors = probed
+    if not ends:
+        return {"evaluations": START_NFEV, "errors": errors}
+    b = min(ends, key=lambda f: f.cost)
+    return {"evaluations": START_NFEV, "delta_bic": b.bic - current.bic, "train_rmse": b.train_rmse}
+
+
+def _multistart(dataset, spec, p, starts, holdout, executor, warm, judge=None, probed=None):
+    """The candidate's fit from each of its starts (start values on p, warm from the
+    current fit): with more than one start, or a `judge`, each runs START_NFEV evaluations
+    and only the best (least cost) goes on to CANDIDATE_NFEV in all, resumed where it
+    stopped; with a judge, the best of those judge(fit) passes, and none when it passes
+    none. `probed`: those START_NFEV evaluations, already made (_race). Returns (the best
+    fit or None, the errors of the starts the model could not run, whether the judge
+    stopped it)."""
+    probe = START_NFEV if len(starts) > 1 or judge is not None or probed is not None else CANDIDATE_NFEV
+    # racing starts are compared by their cost alone: their held-out recordings are fitted
+    # only by the leader's search (a branch's two starts behind a series resistance: 2 x 24 s)
+    held_out = judge is not None or probe == CANDIDATE_NFEV
+    if probed is not None and judge is None:
+        ends, errors = list(probed[0]), list(probed[1])
+    else:
+        ends, errors = _probe(dataset, spec, p, starts, holdout, executor, warm, probe, held_out)
     if not ends:
         return None, errors, False
     best = min(ends, key=lambda f: f.cost)
