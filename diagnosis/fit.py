@@ -717,7 +717,9 @@ def predicted_refit(dataset, fr: FitResult, params: Parameters, executor=None) -
     Gauss-Newton step: fr's training recordings run at params with fr's own nuisances (one
     run each, in one batch), and the step that fr's Jacobian (lsq J, at its solution) gives
     against those residuals. Returns {fit (a FitResult of fr's spec at the step's
-    coordinates, fit.z; fr's errors: model_values carries them), cost_at (the cost at fr's
+    coordinates, fit.z, and its nuisances - the training recordings' factors and drive
+    timing - where the step puts them: a refit warm from it starts at the step; fr's
+    errors: model_values carries them), cost_at (the cost at fr's
     values there), cost_step (the step's linear prediction), runs}; None without fr's
     Jacobian. The step lies within fr's bounds (clipped)."""
     if not fr.lsq or "J" not in fr.lsq:
@@ -738,7 +740,15 @@ def predicted_refit(dataset, fr: FitResult, params: Parameters, executor=None) -
     z = np.clip(fr.z + dx[:k], lo, hi)
     r_step = r + J @ np.concatenate([z - fr.z, dx[k:]])
     base = fr.base.replace(N=params.N)
-    g = replace(fr, base=base, params=apply(base, fr.spec, z), z=z,
+    # the step's nuisances too (within their bounds), so a refit warm from it starts at the step
+    R = len(prob.recs)
+    d_new = np.clip(np.asarray(deltas, float) + dx[k:k + R], -DELTA_BOUND, DELTA_BOUND)
+    factors = {**fr.rho_factors, **{rec.name: math.exp(d) for rec, d in zip(prob.recs, d_new)}}
+    timing = fr.timing
+    if tz is not None:
+        tz_new = np.clip(np.asarray(tz, float) + dx[k + R:], -TIMING_BOUND * prob.prior, TIMING_BOUND * prob.prior)
+        timing = {**fr.timing, **{rec.name: tm for rec, tm in zip(prob.recs, prob.timing(tz_new)) if tm}}
+    g = replace(fr, base=base, params=apply(base, fr.spec, z), z=z, rho_factors=factors, timing=timing,
                 values={f.key: f.from_z(z[i]) for i, f in enumerate(fr.spec)},
                 stderr={f.key: (f.from_z(z[i]) * fr.stderr[f.key] / max(abs(fr.values[f.key]), 1e-300) if f.log
                                 else fr.stderr[f.key]) for i, f in enumerate(fr.spec)},

@@ -512,11 +512,17 @@ class _KeptFine:
             self._point = evaluate(dataset, current, pk, executor)
         return self._point
 
-    def fit(self):
+    def fit(self, start=None):
+        """The refit (made once). `start`: a point of the same spec at this N to start from
+        instead of the kept fit's values and nuisances (convergence.value_check: one
+        Gauss-Newton step's)."""
         if self._fit is None:
             dataset, pk, ctx, kept, current, holdout, executor = self._args
-            self._fit = fit(dataset, _spec(pk, ctx, kept), base=pk, holdout=holdout, executor=executor,
-                            warm=current, max_nfev=RES_NFEV)
+            spec = _spec(pk, ctx, kept)
+            if start is not None and [f.key for f in start.spec] != [f.key for f in spec]:
+                start = None
+            self._fit = fit(dataset, spec, base=pk, holdout=holdout, executor=executor, warm=start or current,
+                            z0=None if start is None else start.z, max_nfev=RES_NFEV)
             if isinstance(self._refits, list):     # later checks (convergence.value_check) reuse it
                 self._refits.append((current, self._fit))
         return self._fit

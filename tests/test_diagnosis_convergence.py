@@ -165,6 +165,11 @@ def test_one_gauss_newton_step_predicts_a_refit_at_twice_the_elements(tmp_path):
     assert 0.6 < pred / real < 1.4
     assert abs(pr["cost_step"] / g.cost - 1) < 0.15 and pr["cost_at"] > g.cost
     assert pr["runs"] == len(f.train) and pr["fit"].params.N == 21
+    # a refit started at the step's point (values and nuisances: value_check) gets as far, in fewer runs
+    h = fit(ds, _spec(pk, ctx, [BRANCH]), base=pk, holdout=[], warm=pr["fit"], z0=pr["fit"].z, max_nfev=12)
+    print(f"refit from the step: cost {h.cost:.0f} in {h.runs} runs (from the fit's values: {g.runs})")
+    assert h.cost <= g.cost * 1.001 and h.runs < g.runs
+    assert h.values["chi_p"] == pytest.approx(g.values["chi_p"], rel=0.02)
 
 
 def test_a_predicted_move_below_the_steps_capture_of_the_threshold_settles(monkeypatch):
