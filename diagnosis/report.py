@@ -13,7 +13,7 @@ from .alternatives import phrases as alternative_phrases, separate_text, values_
 from .gain_account import PRIOR_SDS
 from .improved import again_phrase, entry_parameters, raised_phrases, write_improved, write_protocols
 from .levels import LEVEL_STEPS
-from .rules import STRONG_ERROR, UNEXPLAINED
+from .rules import STRONG_ERROR, UNEXPLAINED, _um
 from .timing import GAIN_PRIOR, TIMING
 
 GAIN_LOUD = 2.0   # a monitor gain this many prior SDs off its condition's mean is named in the conclusion
@@ -476,6 +476,10 @@ def values_phrase(D) -> str | None:
     (convergence.value_check), when they moved: None when they settled at the first
     doubling (or were not followed)."""
     v = getattr(D, "values_in_N", None)
+    if v and v.get("refined"):
+        a, b = [st["heldout_rmse"] if st["heldout_rmse"] is not None else st["train_rmse"] for st in v["steps"][-2:]]
+        return (f"the named values settled at N = {v['steps'][-1]['N']}, where the kept model fits better "
+                f"({_um(a)} -> {_um(b)}): the final model is at N = {v['N_final']} (values_in_N)")
     if not v or len(v["steps"]) < 2 or (v["converged"] and len(v["steps"]) == 2):
         return None
     Ns = ", ".join(str(st["N"]) + (" (one Gauss-Newton step)" if st.get("predicted") else "") for st in v["steps"])
@@ -867,6 +871,9 @@ def to_markdown(D, report: dict, plots: dict) -> str:
             if "error" in ev:
                 L.append(f"| {name} | {pred} | - | - | - | {ev['error']} |")
                 continue
+            raced = ev.get("raced")
+            if raced and "delta_bic" in raced:
+                name = f"{name} (raced: {raced['delta_bic']:+.1f} after {raced['evaluations']} evaluations)"
             if not ev.get("fitted"):
                 why = "skipped: an accepted candidate beats it" if ev.get("skipped") else "not fitted"
                 L.append(f"| {name} | {pred} | {why} | - | - | - |")

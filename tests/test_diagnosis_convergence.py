@@ -57,6 +57,19 @@ def test_values_that_settle_at_the_first_doubling_leave_the_final_model_as_it_wa
     assert rec["converged"] and rec["stopped"] is None and rec["N_final"] == 21
 
 
+def test_values_that_settle_where_the_refit_fits_better_take_the_finer_model(monkeypatch):
+    """Settled (4 %), but the refit's held-out error is 1.57 -> 1.25 um: the finer model is
+    final, as the resolution check's refit would be (else the check again refits it once
+    more)."""
+    fits = {21: _fit(21, 0.100, 0.30, held=1.57e-6), 41: _fit(41, 0.104, 0.31, 2.2e-6, held=1.25e-6)}
+    final, rec, made = _run(monkeypatch, fits)
+    assert made == [41] and final is fits[41] and rec["N_final"] == 41
+    assert rec["converged"] and rec["refined"] and rec["stopped"] is None
+    from diagnosis.report import values_phrase
+    text = values_phrase(NS(values_in_N=rec))
+    assert "settled at N = 41" in text and "1.57 um -> 1.25 um" in text and "final model is at N = 41" in text
+
+
 def test_a_value_the_data_hardly_fix_does_not_count_as_moving(monkeypatch):
     """40 % apart but within 3 standard errors: a refit's scatter, not resolution."""
     fits = {21: _fit(21, 0.05, 0.30, se=0.03), 41: _fit(41, 0.07, 0.31, se=0.03)}
