@@ -14,7 +14,8 @@ twice the elements are what it times.
 combined (a series resistance and a polarization branch) has its truth at 4x N too: made
 at the fit's own N (as until 2026-12-08) its data held the model's discretization error,
 the values settled at once and the finer refits were not taken (298 s); from a finer truth
-the branch's values move with N and are followed (587 s before the screens' race).
+the branch's values move with N and are followed (587 s before the screens' race, 362 s
+after it and the value check's trusted steps: docs/guide/diagnosis.md).
 """
 from __future__ import annotations
 
