@@ -221,8 +221,10 @@ def _race(dataset, listed, screens, prepared, kept, ctx, weak, holdout, executor
     accepted one's (near the noise): the first one fitted is never skipped. Where the best
     forms of two entries or more predict falls within SCREEN_SKIP of the best one's, the
     screen cannot order them: each (its best form, fitted without a judge) runs
-    START_NFEV evaluations from its starts first, the leaders by cost are fitted first (from
-    where their probes stopped), and the rest keep the screens' order. On the issue-size
+    START_NFEV evaluations from its starts first, in the screens' order and until the probes
+    have fallen further than SCREEN_SKIP times the next one's screen, the leaders by cost
+    are fitted first (from where their probes stopped), and the rest keep the screens'
+    order. On the issue-size
     combined case with the truth at 4x N, a field law's Eq. (21) (predicted fall 17167)
     led a polarization branch (16837) behind the series resistance: its full fit took 124
     s for a fall of 806; the branch's then fell 37187 to 1.1 noises."""
@@ -237,13 +239,19 @@ def _race(dataset, listed, screens, prepared, kept, ctx, weak, holdout, executor
         return listed, {}
     raced = {}
     for k in contenders:
+        reached = min((f.bic - current.bic for ends, _ in raced.values() for f in ends), default=0.0)
+        if reached < 0 and reached <= SCREEN_SKIP * screens[k]["predicted_delta_bic"]:
+            # the probes so far already fell further than twice this one's screen: once their
+            # leader is accepted near the noise it is skipped anyway (the data made at the fit's
+            # N: the branch's probe fell 41393, Eq. (21)'s screen predicted 16856 - 55 s spared)
+            break
         e, p = prepared[k]
         say(f"round {rnd + 1}: probing {k} ({START_NFEV} evaluations: the screens cannot order "
             f"{' and '.join(contenders)})")
         raced[k] = _probe(dataset, _spec(p, ctx, [*kept, e]), p, e.starts(p, ctx) if e.starts else [{}], holdout,
                           executor, current, START_NFEV, False)
-    cost = {k: min((f.cost for f in raced[k][0]), default=float("inf")) for k in contenders}
-    order = sorted(contenders, key=lambda k: cost[k])
+    cost = {k: min((f.cost for f in raced[k][0]), default=float("inf")) for k in raced}
+    order = sorted(raced, key=lambda k: cost[k])
     # the raced entries' forms, led by the race, then the rest as the screens had them
     first = [x for k in order for x in listed if _name(x) == _name(k)]
     return first + [x for x in listed if x not in first], raced

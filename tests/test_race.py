@@ -80,3 +80,21 @@ def test_a_probe_that_got_further_than_its_screen_is_what_the_skip_rule_weighs()
     assert dg._hope(screens, "law (Eq. 21)", raced, current) == -80.0  # not probed: its screen
     raced["law (Eq. 21)"] = ([NS(bic=990.0)], [])
     assert dg._hope(screens, "law (Eq. 21)", raced, current) == -80.0  # the screen hoped for more
+
+
+def test_a_leader_whose_probe_beats_twice_the_next_screen_spares_its_probe(monkeypatch):
+    """The screens' order was right (data made at the fit's own N): the branch's probe fell
+    41393, twice Eq. (21)'s screen is 33711 - Eq. (21) is not probed (it would be skipped once
+    the branch is accepted near the noise); the order stays the screens'."""
+    listed = ["branch", "law (Eq. 21)", "law (spline)"]
+    screens = {"branch": {"predicted_delta_bic": -21907.0}, "law (Eq. 21)": {"predicted_delta_bic": -16856.0},
+               "law (spline)": {"predicted_delta_bic": 10.8}}
+    calls = _setup(monkeypatch, {"branch": 1e5 - 41393.0, "law (Eq. 21)": 1e5})
+    order, raced = dg._race(None, listed, screens, _prepared(listed), [], None, None, None, None, NS(bic=1e5),
+                            lambda s: None, 1)
+    assert order == listed and list(raced) == ["branch"] and [c[0] for c in calls] == ["branch"]
+    # a probe that fell less than that: the next one is probed
+    calls = _setup(monkeypatch, {"branch": 1e5 - 30000.0, "law (Eq. 21)": 1e5 - 35000.0})
+    order, raced = dg._race(None, listed, screens, _prepared(listed), [], None, None, None, None, NS(bic=1e5),
+                            lambda s: None, 1)
+    assert sorted(raced) == ["branch", "law (Eq. 21)"] and order == ["law (Eq. 21)", "law (spline)", "branch"]
