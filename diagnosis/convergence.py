@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from .fit import predicted_refit
 from .resolution import _KeptFine
-from .rules import RES_BETTER, _error, _um, fine_N
+from .rules import _error, _fits_better, _um, fine_N
 
 VALUE_TOL = 0.10     # a kept entry's parameter moving more than this share at a doubling is not converged
 VALUE_SE = 3.0       # ... and more than this many of its standard errors
@@ -83,8 +83,7 @@ def _predicted(dataset, ctx, kept, f, Nf, executor) -> dict | None:
         return None
     if pr is None:
         return None
-    gains = "cost_step" in pr and pr["cost_step"] < pr["cost_at"]
-    return {"values": _entry_values(pr["fit"], kept, ctx), "fit": pr["fit"], "gains": gains}
+    return {"values": _entry_values(pr["fit"], kept, ctx), "fit": pr["fit"], "gains": pr["cost_step"] < pr["cost_at"]}
 
 
 def value_check(dataset, ctx, kept, current, refits, holdout, executor, say) -> tuple:
@@ -149,7 +148,7 @@ def value_check(dataset, ctx, kept, current, refits, holdout, executor, say) -> 
             break
         if not any(m[1] for m in moved.values()):
             converged = True
-            if _error(g) < RES_BETTER * _error(f):
+            if _fits_better(g, f):
                 # settled, but the refit fits better there: the final model, as the resolution
                 # check's refit would be (a series resistance under reset + hold, lab_fine, N = 81
                 # -> 161: R_s -5 %, the error 1.57 -> 1.25 um - left at 81, it was 3.5 noises off

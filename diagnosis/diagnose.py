@@ -67,7 +67,7 @@ from .resolution import (
 )
 from .rounds import _select
 from .rules import (
-    CANDIDATE_NFEV, CHECK_EXTRA, RAISE_MAX, RES_BETTER, UNEXPLAINED, _error, _spec, _um, _unexplained,
+    CANDIDATE_NFEV, CHECK_EXTRA, RAISE_MAX, UNEXPLAINED, _error, _fits_better, _spec, _um, _unexplained,
     _worst_error,
 )
 
@@ -222,7 +222,7 @@ def _again(dataset, D, executor, say, holdout, wall) -> Diagnosis:
                 # itself, left 2.76 um in training; at N = 161, 1.10 um
                 g = _KeptFine(dataset, D.final.params.replace(N=N2), D.context, kept, D.final, holdout, executor,
                               refits).fit()
-                if _error(g) < RES_BETTER * _error(D.final):
+                if _fits_better(g, D.final):
                     current, rec["refined"] = g, True
                     say(f"{' + '.join(e.key for e in kept)} refitted at N = {N2} fits better "
                         f"({_um(_error(D.final))} -> {_um(_error(g))}): the final model is there")
@@ -269,7 +269,7 @@ def _again_without_physics(dataset, D, N2, holdout, executor, refits, say) -> tu
                 f"{gain_fine:.0%} at N = {N2} ({_um(_error(ff))} without): it took up the model's discretization "
                 f"error; the final model is the baseline at N = {N2}")
             return [], ff, rec
-    if _error(g) < RES_BETTER * _error(D.final):
+    if _fits_better(g, D.final):
         current, rec["refined"] = g, True
         say(f"refitted at N = {N2} the final model fits better ({_um(_error(D.final))} -> {_um(_error(g))})")
     return kept, current, rec
@@ -430,7 +430,7 @@ def _cold_refit(dataset, ctx, kept, current, f0, holdout, executor, say) -> tupl
     except Exception:              # cannot run: the final model stands
         return current, None
     # lower cost, and an error RES_BETTER below: a hair's gain is no reason to change the model
-    taken = g.cost < current.cost and _error(g) < RES_BETTER * _error(current)
+    taken = g.cost < current.cost and _fits_better(g, current)
     rec = {"N": current.params.N, "rmse": _error(current), "rmse_cold": _error(g), "taken": bool(taken),
            "measure": "held-out" if g.heldout_rmse is not None else "training"}
     if taken:

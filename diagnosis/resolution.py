@@ -12,8 +12,9 @@ from .fit import evaluate, fit
 from .improved import NOTHING_KEPT, RESELECTED, TRAINING
 from .model import apply
 from .rules import (
-    CANDIDATE_NFEV, LEAP_CUT, RAISE_FLOOR, RAISE_GAIN, RAISE_MAX, RES_BETTER, RES_NFEV, RES_PREMISE, RES_SHRINK,
-    RES_WORSE, UNEXPLAINED, _accept, _beyond_reach, _cut, _error, fine_N, _prepared, _shrinks, _spec, _um, _unexplained,
+    CANDIDATE_NFEV, LEAP_CUT, RAISE_FLOOR, RAISE_GAIN, RAISE_MAX, RES_NFEV, RES_PREMISE, RES_SHRINK, RES_WORSE,
+    UNEXPLAINED, _accept, _beyond_reach, _cut, _error, _fits_better, fine_N, _prepared, _shrinks, _spec, _um,
+    _unexplained,
 )
 
 
@@ -360,7 +361,7 @@ def _resolution_check(dataset, base, ctx, kept, current, f0, holdout, executor, 
             return kept, kf.best(), rec
         fk = kf.best()
         rec["kept_fine_rmse"], rec["gain_fine"] = _error(fk), 1.0 - _error(fk) / _error(ff)
-        if kf.fitted and _error(fk) < RES_BETTER * _error(current):
+        if kf.fitted and _fits_better(fk, current):
             # the physics holds and the finer model fits better: it is the final model (a kept
             # law of an N = 21 fit to a finer truth left 2.5 noises held out, 1.4 at N = 41; the
             # coarse one would have called the model's own resolution error unexplained)

@@ -224,10 +224,9 @@ def _race(dataset, listed, screens, prepared, kept, ctx, weak, holdout, executor
     START_NFEV evaluations from its starts first, in the screens' order and until the probes
     have fallen further than SCREEN_SKIP times the next one's screen, the leaders by cost
     are fitted first (from where their probes stopped), and the rest keep the screens'
-    order. On the issue-size
-    combined case with the truth at 4x N, a field law's Eq. (21) (predicted fall 17167)
-    led a polarization branch (16837) behind the series resistance: its full fit took 124
-    s for a fall of 806; the branch's then fell 37187 to 1.1 noises."""
+    order. On the issue-size combined case with the truth at 4x N, a field law's Eq. (21)
+    (predicted fall 17167) led a polarization branch (16837) behind the series resistance:
+    its full fit took 124 s for a fall of 806; the branch's then fell 37187 to 1.1 noises."""
     best_of = {}
     for k in listed:
         if _name(k) not in best_of:

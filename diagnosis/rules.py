@@ -131,6 +131,12 @@ def _error(f) -> float:
     return f.heldout_rmse if f.heldout_rmse is not None else f.train_rmse
 
 
+def _fits_better(g, f) -> bool:
+    """Whether fit g (a refit at another N) is worth taking over f: its error (held out,
+    else training) below RES_BETTER of f's - a hair's gain is no reason to change the model."""
+    return _error(g) < RES_BETTER * _error(f)
+
+
 def fine_N(N: int) -> int:
     """The check's resolution: twice the elements (the continuum scheme's error falls ~4x)."""
     return 2 * (N - 1) + 1

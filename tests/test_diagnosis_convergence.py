@@ -114,7 +114,8 @@ def _predicting(monkeypatch, by_N):
 
     def fake(dataset, f, params, executor=None):
         asked.append(params.N)
-        return {"fit": by_N[params.N]}
+        # a step that predicts no cost below f's values there: a refit starts warm from f
+        return {"fit": by_N[params.N], "cost_at": 1.0, "cost_step": 1.0}
     monkeypatch.setattr(cv, "predicted_refit", fake)
     return asked
 
