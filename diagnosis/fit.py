@@ -362,6 +362,11 @@ class Problem:
         self.gains = [(js, C, np.array([self.toffs[j] + self.keys[j].index("gain") for j in o]))
                       for (js, C), o in zip(groups, owners)]
 
+    def bound(self) -> np.ndarray:
+        """Each nuisance's bound (+-) in the search's order: the recordings' log
+        resistivity factors, then the flat timing (BOUND prior SDs)."""
+        return np.concatenate([np.full(self.R, DELTA_BOUND), TIMING_BOUND * self.prior])
+
     def flat_timing(self, timing: dict | None):
         """The flat tz of {recording: {key: value}} (FitResult.timing, each recording's own
         gain among them; a nuisance it lacks at 0, as read), or None without it."""
@@ -475,8 +480,8 @@ def _solve(recs, base, spec, z0, runner, sigma, sigma_rep, decimate, max_nfev, p
     tz0 = prob.flat_timing(t0)
     x0 = np.concatenate([np.asarray(z0, float), np.zeros(R) if d0 is None else np.asarray(d0, float),
                          np.zeros(T) if tz0 is None else tz0])
-    lo = np.array([f.z_bounds()[0] for f in spec] + [-DELTA_BOUND] * R + list(-TIMING_BOUND * prob.prior))
-    hi = np.array([f.z_bounds()[1] for f in spec] + [DELTA_BOUND] * R + list(TIMING_BOUND * prob.prior))
+    lo = np.concatenate([[f.z_bounds()[0] for f in spec], -prob.bound()])
+    hi = np.concatenate([[f.z_bounds()[1] for f in spec], prob.bound()])
     x0 = np.clip(x0, np.where(np.isfinite(lo), lo + 1e-9 * np.maximum(1, np.abs(lo)), lo),
                  np.where(np.isfinite(hi), hi - 1e-9 * np.maximum(1, np.abs(hi)), hi))
     # the trust-region steps solved exactly (SVD of a dense Jacobian) while it is small:
@@ -742,12 +747,11 @@ def predicted_refit(dataset, fr: FitResult, params: Parameters, executor=None) -
     base = fr.base.replace(N=params.N)
     # the step's nuisances too (within their bounds), so a refit warm from it starts at the step
     R = len(prob.recs)
-    d_new = np.clip(np.asarray(deltas, float) + dx[k:k + R], -DELTA_BOUND, DELTA_BOUND)
-    factors = {**fr.rho_factors, **{rec.name: math.exp(d) for rec, d in zip(prob.recs, d_new)}}
+    nu = np.clip(np.concatenate([deltas, [] if tz is None else tz]) + dx[k:], -prob.bound(), prob.bound())
+    factors = {**fr.rho_factors, **{rec.name: math.exp(d) for rec, d in zip(prob.recs, nu[:R])}}
     timing = fr.timing
     if tz is not None:
-        tz_new = np.clip(np.asarray(tz, float) + dx[k + R:], -TIMING_BOUND * prob.prior, TIMING_BOUND * prob.prior)
-        timing = {**fr.timing, **{rec.name: tm for rec, tm in zip(prob.recs, prob.timing(tz_new)) if tm}}
+        timing = {**fr.timing, **{rec.name: tm for rec, tm in zip(prob.recs, prob.timing(nu[R:])) if tm}}
     g = replace(fr, base=base, params=apply(base, fr.spec, z), z=z, rho_factors=factors, timing=timing,
                 values={f.key: f.from_z(z[i]) for i, f in enumerate(fr.spec)},
                 stderr={f.key: (f.from_z(z[i]) * fr.stderr[f.key] / max(abs(fr.values[f.key]), 1e-300) if f.log
